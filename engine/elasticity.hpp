@@ -1,0 +1,133 @@
+// Linear (hypo-)elastic material with the Jaumann stress rate, seed eq. (1a):
+//   d sigma / dt = D : d + omega sigma - sigma omega,
+// d = sym(grad v), omega = skew(grad v), grad v(i, j) = d v_i / d x_j.
+// A small evaluator with value semantics: the loops call it per particle.
+#pragma once
+
+#include "engine/particle_set.hpp"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace tsph {
+
+/// How a 2D model treats the out-of-plane direction.
+enum class PlaneMode { plane_strain, plane_stress };
+
+template <int Dim>
+using StressVector = std::array<double, stress_component_count<Dim>>;
+
+/// Stress components <-> full 3x3 symmetric tensor (ordering in particle_set.hpp).
+template <int Dim>
+Eigen::Matrix3d to_tensor(const StressVector<Dim>& s) {
+  Eigen::Matrix3d t = Eigen::Matrix3d::Zero();
+  if constexpr (Dim == 1) {
+    t(0, 0) = s[0];
+  } else if constexpr (Dim == 2) {
+    t(0, 0) = s[0];
+    t(1, 1) = s[1];
+    t(0, 1) = t(1, 0) = s[2];
+    t(2, 2) = s[3];
+  } else {
+    t(0, 0) = s[0];
+    t(1, 1) = s[1];
+    t(2, 2) = s[2];
+    t(0, 1) = t(1, 0) = s[3];
+    t(1, 2) = t(2, 1) = s[4];
+    t(2, 0) = t(0, 2) = s[5];
+  }
+  return t;
+}
+
+template <int Dim>
+StressVector<Dim> from_tensor(const Eigen::Matrix3d& t) {
+  if constexpr (Dim == 1) return {t(0, 0)};
+  else if constexpr (Dim == 2) return {t(0, 0), t(1, 1), t(0, 1), t(2, 2)};
+  else return {t(0, 0), t(1, 1), t(2, 2), t(0, 1), t(1, 2), t(2, 0)};
+}
+
+template <int Dim>
+class LinearElastic {
+ public:
+  /// Young's modulus E > 0, Poisson's ratio nu in (-1, 0.5), reference density > 0.
+  /// In 1D the bar is in uniaxial stress and only E enters.
+  LinearElastic(double young_modulus, double poisson_ratio, double density,
+                PlaneMode plane_mode = PlaneMode::plane_strain)
+      : young_(young_modulus), poisson_(poisson_ratio), density_(density), plane_mode_(plane_mode) {
+    if (!(young_ > 0.0) || !std::isfinite(young_))
+      throw std::invalid_argument("material: E = " + std::to_string(young_) + " must be positive");
+    if (!(density_ > 0.0) || !std::isfinite(density_))
+      throw std::invalid_argument("material: rho = " + std::to_string(density_) +
+                                  " must be positive");
+    if (Dim > 1 && !(poisson_ > -1.0 && poisson_ < 0.5))
+      throw std::invalid_argument("material: nu = " + std::to_string(poisson_) +
+                                  " must lie in (-1, 0.5)");
+    shear_ = young_ / (2.0 * (1.0 + poisson_));
+    lame_ = young_ * poisson_ / ((1.0 + poisson_) * (1.0 - 2.0 * poisson_));
+  }
+
+  double young_modulus() const { return young_; }
+  double poisson_ratio() const { return poisson_; }
+  double reference_density() const { return density_; }
+  PlaneMode plane_mode() const { return plane_mode_; }
+
+  /// Modulus of the fastest (longitudinal) wave in this model.
+  double p_wave_modulus() const {
+    if constexpr (Dim == 1) return young_;
+    else if constexpr (Dim == 2)
+      return plane_mode_ == PlaneMode::plane_stress ? young_ / (1.0 - poisson_ * poisson_)
+                                                    : lame_ + 2.0 * shear_;
+    else return lame_ + 2.0 * shear_;
+  }
+  /// Longitudinal wave speed c = sqrt(M / rho): sets the time step, dt = CFL dx / c.
+  double p_wave_speed(double density) const { return std::sqrt(p_wave_modulus() / density); }
+
+  /// Stress rate of seed eq. (1a): elastic part D : d plus the Jaumann terms.
+  StressVector<Dim> stress_rate(const Matrix<Dim>& grad_v, const StressVector<Dim>& stress) const {
+    if constexpr (Dim == 1) {
+      return {young_ * grad_v(0, 0)};
+    } else {
+      Eigen::Matrix3d velocity_gradient = Eigen::Matrix3d::Zero();
+      velocity_gradient.topLeftCorner<Dim, Dim>() = grad_v;
+      const Eigen::Matrix3d d = 0.5 * (velocity_gradient + velocity_gradient.transpose());
+      const Eigen::Matrix3d omega = 0.5 * (velocity_gradient - velocity_gradient.transpose());
+      Eigen::Matrix3d rate;
+      if (Dim == 2 && plane_mode_ == PlaneMode::plane_stress) {
+        // sigma_zz = 0: eliminate d_zz with the plane-stress modulus E / (1 - nu^2).
+        const double lame_plane = 2.0 * lame_ * shear_ / (lame_ + 2.0 * shear_);
+        rate = lame_plane * d.trace() * Eigen::Matrix3d::Identity() + 2.0 * shear_ * d;
+        rate(2, 2) = 0.0;
+      } else {
+        rate = lame_ * d.trace() * Eigen::Matrix3d::Identity() + 2.0 * shear_ * d;
+      }
+      const Eigen::Matrix3d sigma = to_tensor<Dim>(stress);
+      rate += omega * sigma - sigma * omega;
+      return from_tensor<Dim>(rate);
+    }
+  }
+
+  /// Strain energy per unit volume, sigma : C^-1 : sigma / 2 (isotropic compliance).
+  double strain_energy_density(const StressVector<Dim>& stress) const {
+    if constexpr (Dim == 1) {
+      return stress[0] * stress[0] / (2.0 * young_);
+    } else {
+      const Eigen::Matrix3d s = to_tensor<Dim>(stress);
+      const double trace = s.trace();
+      return ((1.0 + poisson_) * s.squaredNorm() - poisson_ * trace * trace) / (2.0 * young_);
+    }
+  }
+
+ private:
+  double young_;
+  double poisson_;
+  double density_;
+  PlaneMode plane_mode_;
+  double shear_ = 0.0;
+  double lame_ = 0.0;
+};
+
+}  // namespace tsph

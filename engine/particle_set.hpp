@@ -1,0 +1,132 @@
+// Structure-of-arrays particle storage (DESIGN.md section 6, STYLE.md "Structure of
+// arrays"). One contiguous array per scalar component; loops receive a
+// `ParticleView` of raw pointers, never the container. Every field is reached through
+// `for_each_field`, so `resize` and `permute` cannot forget one.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cassert>
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace tsph {
+
+/// Number of independent Cauchy stress components stored per particle.
+/// 1D: xx. 2D: xx, yy, xy, zz (zz is carried for plane strain, zero in plane stress).
+/// 3D: xx, yy, zz, xy, yz, zx.
+template <int Dim>
+inline constexpr int stress_component_count = Dim == 1 ? 1 : Dim == 2 ? 4 : 6;
+
+template <int Dim>
+using Vector = Eigen::Matrix<double, Dim, 1>;
+template <int Dim>
+using Matrix = Eigen::Matrix<double, Dim, Dim>;
+
+/// Raw-pointer view of the fields a loop reads or writes. Trivially copyable.
+template <int Dim>
+struct ParticleView {
+  static constexpr int stress_count = stress_component_count<Dim>;
+  std::size_t count = 0;
+  std::array<double*, Dim> position{};
+  std::array<double*, Dim> velocity{};
+  std::array<double*, stress_count> stress{};
+  double* mass = nullptr;
+  double* density = nullptr;
+  double* volume = nullptr;
+
+  Vector<Dim> position_of(std::size_t i) const {
+    Vector<Dim> x;
+    for (int d = 0; d < Dim; ++d) x[d] = position[d][i];
+    return x;
+  }
+};
+
+/// A set of particles (real or virtual) in structure-of-arrays form.
+template <int Dim>
+class ParticleSet {
+ public:
+  static_assert(Dim >= 1 && Dim <= 3, "ParticleSet: Dim must be 1, 2 or 3");
+  static constexpr int dim = Dim;
+  static constexpr int stress_count = stress_component_count<Dim>;
+
+  /// Current position, and the position at t = 0 (for displacements).
+  std::array<std::vector<double>, Dim> position;
+  std::array<std::vector<double>, Dim> initial_position;
+  std::array<std::vector<double>, Dim> velocity;
+  std::array<std::vector<double>, stress_count> stress;
+  std::vector<double> mass;
+  std::vector<double> density;
+  std::vector<double> volume;  ///< m / rho, kept in step with density
+  /// Index of the particle when the set was created; survives every `permute`.
+  std::vector<std::uint32_t> id;
+  /// Index into the case's boundary-condition table, or kNoBoundary.
+  std::vector<std::int32_t> boundary;
+
+  static constexpr std::int32_t kNoBoundary = -1;
+
+  std::size_t size() const { return mass.size(); }
+
+  /// Visits every per-particle array. Adding a field means adding it here.
+  template <class F>
+  void for_each_field(F&& f) {
+    for (auto& a : position) f(a);
+    for (auto& a : initial_position) f(a);
+    for (auto& a : velocity) f(a);
+    for (auto& a : stress) f(a);
+    f(mass);
+    f(density);
+    f(volume);
+    f(id);
+    f(boundary);
+  }
+
+  /// Resizes every field; new particles are zeroed, ids numbered, unbounded.
+  void resize(std::size_t n) {
+    const std::size_t old = size();
+    for_each_field([n](auto& field) { field.resize(n); });
+    for (std::size_t i = old; i < n; ++i) {
+      id[i] = static_cast<std::uint32_t>(i);
+      boundary[i] = kNoBoundary;
+    }
+  }
+
+  /// Reorders every field so that new particle i is old particle order[i].
+  void permute(const std::vector<std::uint32_t>& order) {
+    if (order.size() != size())
+      throw std::invalid_argument("ParticleSet::permute: order has " +
+                                  std::to_string(order.size()) + " entries for " +
+                                  std::to_string(size()) + " particles");
+    for_each_field([&order](auto& field) {
+      auto reordered = field;
+      for (std::size_t i = 0; i < order.size(); ++i) reordered[i] = field[order[i]];
+      field.swap(reordered);
+    });
+  }
+
+  ParticleView<Dim> view() {
+    ParticleView<Dim> v;
+    v.count = size();
+    for (int d = 0; d < Dim; ++d) {
+      v.position[d] = position[d].data();
+      v.velocity[d] = velocity[d].data();
+    }
+    for (int s = 0; s < stress_count; ++s) v.stress[s] = stress[s].data();
+    v.mass = mass.data();
+    v.density = density.data();
+    v.volume = volume.data();
+    return v;
+  }
+
+  Vector<Dim> position_of(std::size_t i) const {
+    Vector<Dim> x;
+    for (int d = 0; d < Dim; ++d) x[d] = position[d][i];
+    return x;
+  }
+};
+
+}  // namespace tsph
