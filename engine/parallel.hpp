@@ -24,14 +24,23 @@ void parallel_for(std::size_t n, Body&& body) {
   for (std::int64_t i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
 }
 
-/// Runs `body(i)` for i in [0, n) and returns the sum of its integer results
-/// (used to count fallbacks and rejected points; integer sums are exact).
-template <class Body>
-std::int64_t parallel_count(std::size_t n, Body&& body) {
+/// Runs `body(i, scratch, counts)` for i in [0, n) with one default-constructed
+/// `Scratch` per thread (reused buffers) and one `Counts` per thread, and returns the
+/// sum of the per-thread counts. `Counts` must be an integer tally with `+=`, so the
+/// total does not depend on the order in which threads finish.
+template <class Scratch, class Counts, class Body>
+Counts parallel_for_with_scratch(std::size_t n, Body&& body) {
   const auto count = static_cast<std::int64_t>(n);
-  std::int64_t total = 0;
-#pragma omp parallel for schedule(static) reduction(+ : total)
-  for (std::int64_t i = 0; i < count; ++i) total += body(static_cast<std::size_t>(i));
+  Counts total{};
+#pragma omp parallel
+  {
+    Scratch scratch;
+    Counts local{};
+#pragma omp for schedule(static)
+    for (std::int64_t i = 0; i < count; ++i) body(static_cast<std::size_t>(i), scratch, local);
+#pragma omp critical(tsph_parallel_counts)
+    total += local;
+  }
   return total;
 }
 

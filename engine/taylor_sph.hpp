@@ -231,11 +231,26 @@ class TaylorSph {
     return s;
   }
 
-  void count(const StencilStatus& status, std::int64_t& empty, std::int64_t& interpolation,
-             std::int64_t& gradient) const {
-    empty += status.no_neighbors;
-    interpolation += status.interpolation_fallback;
-    gradient += status.gradient_fallback;
+  /// Per-thread tally of stencil fallbacks.
+  struct StencilCounts {
+    std::int64_t empty = 0, interpolation = 0, gradient = 0;
+    StencilCounts& operator+=(const StencilStatus& status) {
+      empty += status.no_neighbors;
+      interpolation += status.interpolation_fallback;
+      gradient += status.gradient_fallback;
+      return *this;
+    }
+    StencilCounts& operator+=(const StencilCounts& other) {
+      empty += other.empty;
+      interpolation += other.interpolation;
+      gradient += other.gradient;
+      return *this;
+    }
+  };
+  void add(const StencilCounts& counts) {
+    counters_.empty_stencils += counts.empty;
+    counters_.interpolation_fallbacks += counts.interpolation;
+    counters_.gradient_fallbacks += counts.gradient;
   }
 
   /// Seed eq. (3): real -> virtual, U_v^{n+1/2} = U_v^n + dt/2 (S - div F).
@@ -247,35 +262,27 @@ class TaylorSph {
     const double h = settings_.smoothing_length;
     const double half_dt = 0.5 * dt;
     const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
-    std::int64_t empty = 0, interpolation = 0, gradient = 0;
-#pragma omp parallel reduction(+ : empty, interpolation, gradient)
-    {
-      StencilWeights<Dim> w;
-      const auto n = static_cast<std::int64_t>(target.count);
-#pragma omp for schedule(static)
-      for (std::int64_t qi = 0; qi < n; ++qi) {
-        const auto q = static_cast<std::size_t>(qi);
-        const auto nb = virtual_from_real_.neighbors(q);
-        const StencilStatus status =
-            compute_stencil<Dim>(kernel, h, target.position_of(q), source_points, source.volume,
-                                 nb, settings_.interpolation, w);
-        count(status, empty, interpolation, gradient);
-        if (status.no_neighbors) continue;  // isolated: keeps its values (counted)
-        const LocalState s = evaluate(source, nb, w);
-        const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress);
-        for (int m = 0; m < stress_count; ++m) target.stress[m][q] = s.stress[m] + half_dt * rate[m];
-        for (int d = 0; d < Dim; ++d)
-          target.velocity[d][q] = s.velocity[d] + half_dt * (s.stress_divergence[d] / s.density +
-                                                             settings_.body_force[d]);
-        const double density =
-            moving ? s.density * std::exp(-half_dt * s.velocity_gradient.trace()) : s.density;
-        target.density[q] = density;
-        target.volume[q] = target.mass[q] / density;
-      }
-    }
-    counters_.empty_stencils += empty;
-    counters_.interpolation_fallbacks += interpolation;
-    counters_.gradient_fallbacks += gradient;
+    add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
+        target.count, [&](std::size_t q, StencilWeights<Dim>& w, StencilCounts& counts) {
+          const auto nb = virtual_from_real_.neighbors(q);
+          const StencilStatus status =
+              compute_stencil<Dim>(kernel, h, target.position_of(q), source_points,
+                                   source.volume, nb, settings_.interpolation, w);
+          counts += status;
+          if (status.no_neighbors) return;  // isolated: keeps its values (counted)
+          const LocalState s = evaluate(source, nb, w);
+          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress);
+          for (int m = 0; m < stress_count; ++m)
+            target.stress[m][q] = s.stress[m] + half_dt * rate[m];
+          for (int d = 0; d < Dim; ++d)
+            target.velocity[d][q] =
+                s.velocity[d] +
+                half_dt * (s.stress_divergence[d] / s.density + settings_.body_force[d]);
+          const double density =
+              moving ? s.density * std::exp(-half_dt * s.velocity_gradient.trace()) : s.density;
+          target.density[q] = density;
+          target.volume[q] = target.mass[q] / density;
+        }));
   }
 
   /// Seed eq. (4): virtual -> real, U_r^{n+1} = U_r^n + dt (S^{n+1/2} - div F^{n+1/2}).
@@ -286,37 +293,27 @@ class TaylorSph {
     const PointsView<Dim> source_points = points_of<Dim>(virtual_);
     const double h = settings_.smoothing_length;
     const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
-    std::int64_t empty = 0, interpolation = 0, gradient = 0;
-#pragma omp parallel reduction(+ : empty, interpolation, gradient)
-    {
-      StencilWeights<Dim> w;
-      const auto n = static_cast<std::int64_t>(target.count);
-#pragma omp for schedule(static)
-      for (std::int64_t ri = 0; ri < n; ++ri) {
-        const auto r = static_cast<std::size_t>(ri);
-        if (moving)
-          for (int d = 0; d < Dim; ++d) previous_velocity_[d][r] = target.velocity[d][r];
-        const auto nb = real_from_virtual_.neighbors(r);
-        const StencilStatus status =
-            compute_stencil<Dim>(kernel, h, target.position_of(r), source_points, source.volume,
-                                 nb, settings_.interpolation, w);
-        count(status, empty, interpolation, gradient);
-        if (status.no_neighbors) continue;
-        const LocalState s = evaluate(source, nb, w);
-        const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress);
-        for (int m = 0; m < stress_count; ++m) target.stress[m][r] += dt * rate[m];
-        for (int d = 0; d < Dim; ++d)
-          target.velocity[d][r] +=
-              dt * (s.stress_divergence[d] / s.density + settings_.body_force[d]);
-        if (moving) {
-          target.density[r] *= std::exp(-dt * s.velocity_gradient.trace());
-          target.volume[r] = target.mass[r] / target.density[r];
-        }
-      }
-    }
-    counters_.empty_stencils += empty;
-    counters_.interpolation_fallbacks += interpolation;
-    counters_.gradient_fallbacks += gradient;
+    add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
+        target.count, [&](std::size_t r, StencilWeights<Dim>& w, StencilCounts& counts) {
+          if (moving)
+            for (int d = 0; d < Dim; ++d) previous_velocity_[d][r] = target.velocity[d][r];
+          const auto nb = real_from_virtual_.neighbors(r);
+          const StencilStatus status =
+              compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
+                                   source.volume, nb, settings_.interpolation, w);
+          counts += status;
+          if (status.no_neighbors) return;
+          const LocalState s = evaluate(source, nb, w);
+          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress);
+          for (int m = 0; m < stress_count; ++m) target.stress[m][r] += dt * rate[m];
+          for (int d = 0; d < Dim; ++d)
+            target.velocity[d][r] +=
+                dt * (s.stress_divergence[d] / s.density + settings_.body_force[d]);
+          if (moving) {
+            target.density[r] *= std::exp(-dt * s.velocity_gradient.trace());
+            target.volume[r] = target.mass[r] / target.density[r];
+          }
+        }));
   }
 
   /// Gradients of U^n at the boundary particles from the real set (step 0).
@@ -331,7 +328,9 @@ class TaylorSph {
       const StencilStatus status =
           compute_stencil<Dim>(kernel, settings_.smoothing_length, real_.position_of(i),
                                source_points, source.volume, nb, InterpolationKind::shepard, w);
-      counters_.gradient_fallbacks += status.gradient_fallback;
+      StencilCounts counts;
+      counts += status;
+      add(counts);
       Mat grad_v = Mat::Zero();
       std::array<Vec, stress_count> grad_stress;
       for (auto& g : grad_stress) g.setZero();

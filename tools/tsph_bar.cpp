@@ -47,7 +47,10 @@ bool parse_choice(const std::string& key, const std::string& value,
     return true;
   }
   std::string names;
-  for (const auto& [name, unused] : allowed) names += (names.empty() ? "" : ", ") + name;
+  for (const auto& [name, unused] : allowed) {
+    if (!names.empty()) names += ", ";
+    names += name;
+  }
   errors.push_back({key, "'" + value + "'", "must be one of: " + names});
   return false;
 }
@@ -153,7 +156,8 @@ int run_table1(const Options& o, const std::filesystem::path& out) {
               row.paper);
     for (const auto& p : r.profiles)
       write_profile(out / fmt::format("profile_alpha{:.1f}_t{:.6f}ms.csv", row.alpha, p.time * 1e3), p);
-    runs += (runs.empty() ? "" : ",\n  ") + json_run(s, r, "  ");
+    if (!runs.empty()) runs += ",\n  ";
+    runs += json_run(s, r, "  ");
   }
   auto json = fmt::output_file((out / "summary.json").string());
   json.print("{{\"case\": \"bar_table1\", \"runs\": [\n  {}\n]}}\n", runs);
