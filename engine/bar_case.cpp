@@ -112,7 +112,10 @@ double relative_l2_percent(const std::vector<double>& numerical, const std::vect
 BarResult run_bar(const BarCaseSettings& s) {
   if (const auto errors = validate(s); !errors.empty()) {
     std::string message;
-    for (const auto& e : errors) message += (message.empty() ? "" : "\n") + e.message();
+    for (const auto& e : errors) {
+      if (!message.empty()) message += "\n";
+      message += e.message();
+    }
     throw std::invalid_argument(message);
   }
   const double dx = s.spacing();
