@@ -1,12 +1,17 @@
 // Boundary conditions on real particles (seed eqs. 1c-1d; DESIGN.md section 4).
 // A condition prescribes either the velocity vector or the traction vector
-// t = sigma . n, each component a function of time. Particles carry the index of
-// their condition in ParticleSet::boundary.
+// t = sigma . n. Component k of the prescribed vector at particle I and time t is
+//   time[k](t) * profile(x_I^0)[k],
+// a time function times a spatial profile evaluated once at the particle's initial
+// position (uniform by default; the cantilever's parabolic shear is a profile).
+// Particles carry the index of their condition in ParticleSet::boundary.
 #pragma once
 
+#include "engine/particle_set.hpp"
 #include "engine/time_function.hpp"
 
 #include <array>
+#include <functional>
 #include <string>
 
 namespace tsph {
@@ -14,28 +19,35 @@ namespace tsph {
 template <int Dim>
 struct BoundaryCondition {
   enum class Kind { velocity, traction };
+  using Profile = std::function<Vector<Dim>(const Vector<Dim>&)>;
 
   Kind kind = Kind::traction;
-  std::array<TimeFunction, Dim> value = filled(TimeFunction::constant(0.0));
+  std::array<TimeFunction, Dim> time = filled(TimeFunction::constant(0.0));
+  Profile profile = [](const Vector<Dim>&) { return Vector<Dim>::Ones().eval(); };
   std::string name;
 
-  /// Prescribed velocity vector v(t) = (f_0(t), ..., f_Dim-1(t)).
-  static BoundaryCondition velocity(std::array<TimeFunction, Dim> components, std::string name) {
-    return {Kind::velocity, std::move(components), std::move(name)};
+  /// Prescribed velocity vector v(t) = (f_0(t), ..., f_Dim-1(t)) [x profile(x0)].
+  static BoundaryCondition velocity(std::array<TimeFunction, Dim> components, std::string name,
+                                    Profile profile = uniform()) {
+    return {Kind::velocity, std::move(components), std::move(profile), std::move(name)};
   }
   /// Held at rest: v = 0.
   static BoundaryCondition fixed(std::string name) {
     return velocity(filled(TimeFunction::constant(0.0)), std::move(name));
   }
-  /// Prescribed traction vector t(t) = sigma . n.
-  static BoundaryCondition traction(std::array<TimeFunction, Dim> components, std::string name) {
-    return {Kind::traction, std::move(components), std::move(name)};
+  /// Prescribed traction vector t(t) = sigma . n [x profile(x0)].
+  static BoundaryCondition traction(std::array<TimeFunction, Dim> components, std::string name,
+                                    Profile profile = uniform()) {
+    return {Kind::traction, std::move(components), std::move(profile), std::move(name)};
   }
   /// Zero traction.
   static BoundaryCondition free(std::string name) {
     return traction(filled(TimeFunction::constant(0.0)), std::move(name));
   }
 
+  static Profile uniform() {
+    return [](const Vector<Dim>&) { return Vector<Dim>::Ones().eval(); };
+  }
   static std::array<TimeFunction, Dim> filled(const TimeFunction& f) {
     if constexpr (Dim == 1) return {f};
     else if constexpr (Dim == 2) return {f, f};

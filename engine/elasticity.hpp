@@ -75,14 +75,20 @@ class LinearElastic {
   double reference_density() const { return density_; }
   PlaneMode plane_mode() const { return plane_mode_; }
 
-  /// Modulus of the fastest (longitudinal) wave in this model.
-  double p_wave_modulus() const {
-    if constexpr (Dim == 1) return young_;
-    else if constexpr (Dim == 2)
-      return plane_mode_ == PlaneMode::plane_stress ? young_ / (1.0 - poisson_ * poisson_)
-                                                    : lame_ + 2.0 * shear_;
-    else return lame_ + 2.0 * shear_;
+  double shear_modulus() const { return shear_; }
+  /// The first Lame constant of this model: lambda, or in plane stress
+  /// 2 lambda mu / (lambda + 2 mu) (sigma_zz = 0 eliminated).
+  double model_lame() const {
+    if (Dim == 2 && plane_mode_ == PlaneMode::plane_stress)
+      return 2.0 * lame_ * shear_ / (lame_ + 2.0 * shear_);
+    return Dim == 1 ? 0.0 : lame_;
   }
+
+  /// Modulus of the fastest (longitudinal) wave in this model.
+  /// 1D: E; plane stress: E / (1 - nu^2); plane strain and 3D: lambda + 2 mu.
+  double p_wave_modulus() const { return Dim == 1 ? young_ : model_lame() + 2.0 * shear_; }
+  /// Shear wave speed sqrt(mu / rho) (no shear wave in 1D).
+  double s_wave_speed(double density) const { return std::sqrt(shear_ / density); }
   /// Longitudinal wave speed c = sqrt(M / rho): sets the time step, dt = CFL dx / c.
   double p_wave_speed(double density) const { return std::sqrt(p_wave_modulus() / density); }
 
@@ -96,14 +102,9 @@ class LinearElastic {
       const Eigen::Matrix3d d = 0.5 * (velocity_gradient + velocity_gradient.transpose());
       const Eigen::Matrix3d omega = 0.5 * (velocity_gradient - velocity_gradient.transpose());
       Eigen::Matrix3d rate;
-      if (Dim == 2 && plane_mode_ == PlaneMode::plane_stress) {
-        // sigma_zz = 0: eliminate d_zz with the plane-stress modulus E / (1 - nu^2).
-        const double lame_plane = 2.0 * lame_ * shear_ / (lame_ + 2.0 * shear_);
-        rate = lame_plane * d.trace() * Eigen::Matrix3d::Identity() + 2.0 * shear_ * d;
-        rate(2, 2) = 0.0;
-      } else {
-        rate = lame_ * d.trace() * Eigen::Matrix3d::Identity() + 2.0 * shear_ * d;
-      }
+      // Plane stress: sigma_zz = 0 eliminates d_zz, leaving model_lame() in place of lambda.
+      rate = model_lame() * d.trace() * Eigen::Matrix3d::Identity() + 2.0 * shear_ * d;
+      if (Dim == 2 && plane_mode_ == PlaneMode::plane_stress) rate(2, 2) = 0.0;
       const Eigen::Matrix3d sigma = to_tensor<Dim>(stress);
       rate += omega * sigma - sigma * omega;
       return from_tensor<Dim>(rate);

@@ -58,6 +58,8 @@ class ParticleSet {
   std::array<std::vector<double>, Dim> position;
   std::array<std::vector<double>, Dim> initial_position;
   std::array<std::vector<double>, Dim> velocity;
+  /// Displacement from the initial position (integrated in every kinematics mode).
+  std::array<std::vector<double>, Dim> displacement;
   std::array<std::vector<double>, stress_count> stress;
   std::vector<double> mass;
   std::vector<double> density;
@@ -77,6 +79,7 @@ class ParticleSet {
     for (auto& a : position) f(a);
     for (auto& a : initial_position) f(a);
     for (auto& a : velocity) f(a);
+    for (auto& a : displacement) f(a);
     for (auto& a : stress) f(a);
     f(mass);
     f(density);

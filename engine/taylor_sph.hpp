@@ -1,4 +1,4 @@
-// The Taylor-SPH stepper (seed eqs. 3-4; DESIGN.md section 3).
+// The Taylor-SPH stepper (seed eqs. 3-4; DESIGN.md section 3), Dim = 1, 2, 3.
 //
 // One step n -> n+1:
 //   0. boundary pre-pass: gradients of U^n at the boundary real particles, from the
@@ -11,24 +11,34 @@
 //        U_r^{n+1} = U_r^n + dt [ S_r^{n+1/2} - div F ],
 //      with F_r^{n+1/2} interpolated from the virtual neighbours (DESIGN.md 3.2);
 //   3. boundary conditions at n+1 by characteristics (below);
-//   4. in updated-Lagrangian mode: move both sets, update density, rebuild lists.
+//   4. hourglass filter of the real velocities (Dim >= 2, if enabled);
+//   5. displacements; in updated-Lagrangian mode: move both sets, update density,
+//      rebuild the neighbour lists and normals.
 //
 // The flux divergence is written per field: the velocity gradient grad v (which
 // gives D : d and the Jaumann spin, seed eq. 1a) and the stress divergence div sigma
 // (seed eq. 1b, divided by the density at the particle).
 //
 // Our choices, beyond the seed (documented in README.md):
-//  * The source S (Jaumann terms) is evaluated at the particle being updated from its
-//    own interpolated stress and corrected velocity gradient, rather than evaluated at
-//    the neighbours and interpolated: the same order of accuracy, and no same-set
-//    neighbour lists in the bulk.
-//  * Boundary real particles take their state from the characteristic relations along
-//    the outward normal n: the outgoing invariant t_n - Z u_n (t_n = n.sigma.n,
-//    u_n = v.n, Z = rho c) is carried from the foot of the characteristic x - c dt n
-//    at time n, interpolated with the real set's corrected gradient; the incoming one
-//    follows from the prescribed velocity or traction. At CFL 1 with nearest-neighbour
-//    stencils this is exact (the 1D bar to round-off). Implemented for Dim = 1 here;
-//    the 2D/3D normal-frame generalisation belongs to the 2D/3D issue.
+//  * The source S (Jaumann terms, body force, damping -c v) is evaluated at the
+//    particle being updated from its own interpolated state and corrected velocity
+//    gradient, rather than at the neighbours and interpolated: the same order of
+//    accuracy, and no same-set neighbour lists in the bulk.
+//  * Boundary real particles take their state from the characteristic relations in
+//    the frame (n, t_k) of their computed outward normal. With t_n = n.sigma.n,
+//    u_n = v.n, Z_p = rho c_p (and t_k = n.sigma.t_k, u_k = v.t_k, Z_s = rho c_s):
+//      d/dt (t_n - Z_p u_n) + c_p d/dn (t_n - Z_p u_n)
+//          = lambda div_t v_t - c_p div_t (sigma n)_t - Z_p b_n,
+//      d/dt (t_k - Z_s u_k) + c_s d/dn (t_k - Z_s u_k)
+//          = mu d_k u_n - c_s sum_l d_l sigma_lk - Z_s b_k.
+//    Each outgoing invariant is carried from the foot x - c dt n at time n
+//    (interpolated with the real set's corrected gradient) plus dt times its
+//    right-hand side, whose tangential derivatives are taken at n+1/2 from the
+//    virtual set; the incoming invariants follow from the prescribed velocity or
+//    traction. The tangential stresses then follow from the constitutive law with the
+//    normal derivative of u_n eliminated through the t_n rate. In 1D there are no
+//    tangents and this is exact at CFL 1 with nearest-neighbour stencils; a 2D strip
+//    loaded along its axis (nu = 0) reproduces the 1D bar exactly.
 #pragma once
 
 #include "engine/boundary_condition.hpp"
@@ -65,6 +75,13 @@ struct SolverSettings {
   InterpolationKind interpolation = InterpolationKind::linear;
   Kinematics kinematics = Kinematics::small_strain;
   Vector<Dim> body_force = Vector<Dim>::Zero();  ///< b, per unit mass
+  /// Velocity damping c (1/s): dv/dt = ... - c v (dynamic relaxation to a static state).
+  double damping = 0.0;
+  /// Hourglass control epsilon in [0, 1): each step the velocity of every real particle
+  /// not held by a velocity condition is relaxed towards the linear-corrected average
+  /// of its real neighbours, v <- (1 - eps) v + eps vbar. Exact for linear fields;
+  /// damps the real-particle checkerboard that the virtual set cannot see (Dim >= 2).
+  double hourglass_coefficient = 0.0;
 };
 
 /// What the run did; fallbacks are counted per stencil evaluation.
@@ -88,12 +105,46 @@ constexpr int stress_index(int i, int j) {
   }
 }
 
+/// Orthonormal frame whose first column is the unit vector n.
+template <int Dim>
+Matrix<Dim> normal_frame(const Vector<Dim>& n) {
+  Matrix<Dim> frame;
+  frame.col(0) = n;
+  if constexpr (Dim == 2) {
+    frame(0, 1) = -n[1];
+    frame(1, 1) = n[0];
+  } else if constexpr (Dim == 3) {
+    int axis = 0;  // the coordinate axis least aligned with n
+    for (int d = 1; d < 3; ++d)
+      if (std::abs(n[d]) < std::abs(n[axis])) axis = d;
+    Vector<3> e = Vector<3>::Unit(axis);
+    const Vector<3> t1 = (e - e.dot(n) * n).normalized();
+    frame.col(1) = t1;
+    frame.col(2) = n.cross(t1);
+  }
+  return frame;
+}
+
+/// Removes i from row i of a same-set neighbour list.
+inline NeighborList without_self(const NeighborList& list) {
+  NeighborList out;
+  out.offsets.assign(list.offsets.size(), 0);
+  out.indices.reserve(list.indices.size());
+  for (std::size_t i = 0; i < list.query_count(); ++i) {
+    for (std::uint32_t j : list.neighbors(i))
+      if (j != i) out.indices.push_back(j);
+    out.offsets[i + 1] = out.indices.size();
+  }
+  return out;
+}
+
 template <int Dim>
 class TaylorSph {
  public:
   using Vec = Vector<Dim>;
   using Mat = Matrix<Dim>;
   static constexpr int stress_count = stress_component_count<Dim>;
+  using StressGradient = std::array<Vec, stress_count>;
 
   TaylorSph(ParticleSet<Dim> real, ParticleSet<Dim> virtual_particles, LinearElastic<Dim> material,
             SolverSettings<Dim> settings, std::vector<BoundaryCondition<Dim>> boundaries)
@@ -106,8 +157,16 @@ class TaylorSph {
       throw std::invalid_argument("solver: smoothing length h = " +
                                   std::to_string(settings_.smoothing_length) +
                                   " must be positive");
+    if (!(settings_.damping >= 0.0) || !std::isfinite(settings_.damping))
+      throw std::invalid_argument("solver: damping = " + std::to_string(settings_.damping) +
+                                  " must be >= 0");
+    if (!(settings_.hourglass_coefficient >= 0.0 && settings_.hourglass_coefficient < 1.0))
+      throw std::invalid_argument("solver: hourglass coefficient = " +
+                                  std::to_string(settings_.hourglass_coefficient) +
+                                  " must lie in [0, 1)");
     if (real_.size() == 0 || virtual_.size() == 0)
       throw std::invalid_argument("solver: needs at least one real and one virtual particle");
+    boundary_slot_.assign(real_.size(), -1);
     for (std::size_t i = 0; i < real_.size(); ++i) {
       const std::int32_t b = real_.boundary[i];
       if (b == ParticleSet<Dim>::kNoBoundary) continue;
@@ -115,14 +174,22 @@ class TaylorSph {
         throw std::invalid_argument("solver: real particle " + std::to_string(i) +
                                     " refers to boundary condition " + std::to_string(b) +
                                     " of " + std::to_string(boundaries_.size()));
+      boundary_slot_[i] = static_cast<std::int32_t>(boundary_particles_.size());
       boundary_particles_.push_back(static_cast<std::uint32_t>(i));
+      const Vec x0 = initial_position_of(i);
+      boundary_profile_.push_back(boundaries_[static_cast<std::size_t>(b)].profile(x0));
     }
-    if constexpr (Dim > 1)
-      if (!boundary_particles_.empty())
-        throw std::logic_error(
-            "solver: boundary conditions in 2D/3D are not implemented yet (issue 3)");
-    if (settings_.kinematics == Kinematics::updated_lagrangian)
-      for (auto& v : previous_velocity_) v.resize(real_.size());
+    const std::size_t nb = boundary_particles_.size();
+    boundary_normal_.resize(nb);
+    boundary_stress_.resize(nb);
+    boundary_velocity_.resize(nb);
+    boundary_stress_gradient_.resize(nb);
+    boundary_velocity_gradient_.resize(nb);
+    boundary_half_stress_gradient_.resize(nb);
+    boundary_half_velocity_gradient_.resize(nb);
+    for (auto& v : previous_velocity_) v.resize(real_.size());
+    if (settings_.hourglass_coefficient > 0.0)
+      for (auto& v : filtered_velocity_) v.resize(real_.size());
     rebuild_neighbors();
   }
 
@@ -131,16 +198,18 @@ class TaylorSph {
   /// Sets the clock (to land exactly on an output time after round-off).
   void set_time(double t) { time_ = t; }
   const ParticleSet<Dim>& real() const { return real_; }
+  /// Mutable access for setting initial conditions before the first step.
   ParticleSet<Dim>& real() { return real_; }
   const ParticleSet<Dim>& virtual_particles() const { return virtual_; }
   const LinearElastic<Dim>& material() const { return material_; }
   const SolverSettings<Dim>& settings() const { return settings_; }
+  SolverSettings<Dim>& settings() { return settings_; }
   const SolverCounters& counters() const { return counters_; }
   const NeighborList& virtual_from_real() const { return virtual_from_real_; }
   const NeighborList& real_from_virtual() const { return real_from_virtual_; }
-  /// Outward unit normals of the boundary particles, in `boundary_particles()` order.
-  const std::vector<Vec>& boundary_normals() const { return boundary_normal_; }
+  /// Boundary particles (indices into real()) and their outward unit normals.
   const std::vector<std::uint32_t>& boundary_particles() const { return boundary_particles_; }
+  const std::vector<Vec>& boundary_normals() const { return boundary_normal_; }
 
   /// Advances the solution by dt (seed eqs. 3 and 4, then the boundary conditions).
   void step(double dt) {
@@ -151,12 +220,11 @@ class TaylorSph {
       boundary_gradients(kernel);
       half_step(kernel, dt);
       full_step(kernel, dt);
+      apply_boundary_conditions(dt, time_ + dt);
+      if (settings_.hourglass_coefficient > 0.0) filter_hourglass(kernel);
     });
-    apply_boundary_conditions(dt, time_ + dt);
-    if (settings_.kinematics == Kinematics::updated_lagrangian) {
-      move(dt);
-      rebuild_neighbors();
-    }
+    move(dt);
+    if (settings_.kinematics == Kinematics::updated_lagrangian) rebuild_neighbors();
     time_ += dt;
     ++counters_.steps;
   }
@@ -191,6 +259,26 @@ class TaylorSph {
     StressVector<Dim> s;
     for (int c = 0; c < stress_count; ++c) s[c] = set.stress[c][i];
     return s;
+  }
+  Vec initial_position_of(std::size_t i) const {
+    Vec x;
+    for (int d = 0; d < Dim; ++d) x[d] = real_.initial_position[d][i];
+    return x;
+  }
+  Vec velocity_of(std::size_t i) const {
+    Vec v;
+    for (int d = 0; d < Dim; ++d) v[d] = real_.velocity[d][i];
+    return v;
+  }
+  /// The in-plane (Dim x Dim) part of a stress vector as a tensor.
+  static Mat in_plane(const StressVector<Dim>& s) {
+    return to_tensor<Dim>(s).template topLeftCorner<Dim, Dim>();
+  }
+  /// Directional derivative (a . grad) of the stress tensor, in-plane part.
+  static Mat directional(const StressGradient& gradient, const Vec& a) {
+    StressVector<Dim> s;
+    for (int m = 0; m < stress_count; ++m) s[m] = gradient[m].dot(a);
+    return in_plane(s);
   }
 
   /// Interpolated state and flux derivatives of one query point over a stencil.
@@ -229,6 +317,19 @@ class TaylorSph {
         }
     }
     return s;
+  }
+
+  /// Full corrected gradient of every stress component, relative to `centre`.
+  static StressGradient stress_gradient(const ParticleView<Dim>& source,
+                                        std::span<const std::uint32_t> nb,
+                                        const StencilWeights<Dim>& w,
+                                        const StressVector<Dim>& centre) {
+    StressGradient g;
+    for (auto& component : g) component.setZero();
+    for (std::size_t k = 0; k < nb.size(); ++k)
+      for (int m = 0; m < stress_count; ++m)
+        g[m] += (source.stress[m][nb[k]] - centre[m]) * w.gradient[k];
+    return g;
   }
 
   /// Per-thread tally of stencil fallbacks.
@@ -276,8 +377,9 @@ class TaylorSph {
             target.stress[m][q] = s.stress[m] + half_dt * rate[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][q] =
-                s.velocity[d] +
-                half_dt * (s.stress_divergence[d] / s.density + settings_.body_force[d]);
+                s.velocity[d] + half_dt * (s.stress_divergence[d] / s.density +
+                                           settings_.body_force[d] -
+                                           settings_.damping * s.velocity[d]);
           const double density =
               moving ? s.density * std::exp(-half_dt * s.velocity_gradient.trace()) : s.density;
           target.density[q] = density;
@@ -295,8 +397,7 @@ class TaylorSph {
     const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
     add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
         target.count, [&](std::size_t r, StencilWeights<Dim>& w, StencilCounts& counts) {
-          if (moving)
-            for (int d = 0; d < Dim; ++d) previous_velocity_[d][r] = target.velocity[d][r];
+          for (int d = 0; d < Dim; ++d) previous_velocity_[d][r] = target.velocity[d][r];
           const auto nb = real_from_virtual_.neighbors(r);
           const StencilStatus status =
               compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
@@ -304,11 +405,18 @@ class TaylorSph {
           counts += status;
           if (status.no_neighbors) return;
           const LocalState s = evaluate(source, nb, w);
+          if (const std::int32_t b = boundary_slot_[r]; b >= 0) {
+            // Tangential derivatives at n+1/2 for the boundary conditions.
+            boundary_half_velocity_gradient_[static_cast<std::size_t>(b)] = s.velocity_gradient;
+            boundary_half_stress_gradient_[static_cast<std::size_t>(b)] =
+                stress_gradient(source, nb, w, s.stress);
+          }
           const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress);
           for (int m = 0; m < stress_count; ++m) target.stress[m][r] += dt * rate[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][r] +=
-                dt * (s.stress_divergence[d] / s.density + settings_.body_force[d]);
+                dt * (s.stress_divergence[d] / s.density + settings_.body_force[d] -
+                      settings_.damping * s.velocity[d]);
           if (moving) {
             target.density[r] *= std::exp(-dt * s.velocity_gradient.trace());
             target.volume[r] = target.mass[r] / target.density[r];
@@ -316,88 +424,186 @@ class TaylorSph {
         }));
   }
 
-  /// Gradients of U^n at the boundary particles from the real set (step 0).
+  /// Step 0: U^n and its gradients at the boundary particles, from the real set.
   template <class Kernel>
   void boundary_gradients(const Kernel& kernel) {
     const ParticleView<Dim> source = real_.view();
     const PointsView<Dim> source_points = points_of<Dim>(real_);
     StencilWeights<Dim> w;
+    StencilCounts counts;
     for (std::size_t b = 0; b < boundary_particles_.size(); ++b) {
       const std::uint32_t i = boundary_particles_[b];
-      const auto nb = boundary_from_real_.neighbors(b);
-      const StencilStatus status =
-          compute_stencil<Dim>(kernel, settings_.smoothing_length, real_.position_of(i),
-                               source_points, source.volume, nb, InterpolationKind::shepard, w);
-      StencilCounts counts;
-      counts += status;
-      add(counts);
+      const auto nb = real_from_real_.neighbors(i);
+      counts += compute_stencil<Dim>(kernel, settings_.smoothing_length, real_.position_of(i),
+                                     source_points, source.volume, nb,
+                                     InterpolationKind::shepard, w);
       Mat grad_v = Mat::Zero();
-      std::array<Vec, stress_count> grad_stress;
-      for (auto& g : grad_stress) g.setZero();
-      for (std::size_t k = 0; k < nb.size(); ++k) {
-        const std::uint32_t j = nb[k];
-        const Vec& g = w.gradient[k];
+      for (std::size_t k = 0; k < nb.size(); ++k)
         for (int d = 0; d < Dim; ++d)
-          grad_v.row(d) += (source.velocity[d][j] - source.velocity[d][i]) * g.transpose();
-        for (int m = 0; m < stress_count; ++m)
-          grad_stress[m] += (source.stress[m][j] - source.stress[m][i]) * g;
-      }
-      boundary_velocity_gradient_[b] = grad_v;
-      boundary_stress_gradient_[b] = grad_stress;
+          grad_v.row(d) += (source.velocity[d][nb[k]] - source.velocity[d][i]) *
+                           w.gradient[k].transpose();
       boundary_stress_[b] = stress_of(real_, i);
-      for (int d = 0; d < Dim; ++d) boundary_velocity_[b][d] = real_.velocity[d][i];
+      boundary_velocity_[b] = velocity_of(i);
+      boundary_velocity_gradient_[b] = grad_v;
+      boundary_stress_gradient_[b] = stress_gradient(source, nb, w, boundary_stress_[b]);
     }
+    counts.interpolation = 0;  // the Shepard weights are not used here
+    add(counts);
   }
 
   /// Step 3: characteristic boundary conditions at t_new (see the file comment).
   void apply_boundary_conditions(double dt, double t_new) {
-    if constexpr (Dim == 1) {
-      for (std::size_t b = 0; b < boundary_particles_.size(); ++b) {
-        const std::uint32_t i = boundary_particles_[b];
-        const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[i])];
-        const double n = boundary_normal_[b][0];
-        const double density = real_.density[i];
-        const double c = material_.p_wave_speed(density);
-        const double impedance = density * c;
-        // Outgoing invariant w = t_n - Z u_n at the particle and its gradient, time n.
-        const double stress = boundary_stress_[b][0];
-        const double velocity = boundary_velocity_[b][0];
-        const double outgoing = stress - impedance * n * velocity;
-        const double outgoing_gradient = boundary_stress_gradient_[b][0][0] -
-                                         impedance * n * boundary_velocity_gradient_[b](0, 0);
-        // Carried from the foot x - c dt n; the body force changes it by -Z (b.n) dt.
-        const double outgoing_new = outgoing - c * dt * n * outgoing_gradient -
-                                    impedance * settings_.body_force[0] * n * dt;
-        if (condition.kind == BoundaryCondition<Dim>::Kind::velocity) {
-          const double prescribed = condition.value[0](t_new);
-          real_.velocity[0][i] = prescribed;
-          real_.stress[0][i] = outgoing_new + impedance * n * prescribed;
-        } else {
-          const double traction_normal = condition.value[0](t_new) * n;  // t . n
-          real_.stress[0][i] = traction_normal;
-          real_.velocity[0][i] = n * (traction_normal - outgoing_new) / impedance;
-        }
+    const double lame = material_.model_lame();
+    const double shear = material_.shear_modulus();
+    const double modulus = material_.p_wave_modulus();
+    for (std::size_t b = 0; b < boundary_particles_.size(); ++b) {
+      const std::uint32_t i = boundary_particles_[b];
+      const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[i])];
+      const Vec& n = boundary_normal_[b];
+      const Mat frame = normal_frame<Dim>(n);
+      const double density = real_.density[i];
+      const double c_p = std::sqrt(modulus / density);
+      const double c_s = std::sqrt(shear / density);
+      const double z_p = density * c_p;
+      const double z_s = density * c_s;
+
+      // State at n and its normal derivatives (real set), in the frame.
+      const Mat stress0 = frame.transpose() * in_plane(boundary_stress_[b]) * frame;
+      const Vec velocity0 = frame.transpose() * boundary_velocity_[b];
+      const Mat stress_dn = frame.transpose() * directional(boundary_stress_gradient_[b], n) * frame;
+      const Vec velocity_dn = frame.transpose() * (boundary_velocity_gradient_[b] * n);
+      // Tangential derivatives at n+1/2 (virtual set): column k of velocity_dt is
+      // d v' / d t_k, stress_dt[k] is d sigma' / d t_k.
+      Mat velocity_dt = Mat::Zero();
+      std::array<Mat, Dim> stress_dt{};
+      for (int k = 1; k < Dim; ++k) {
+        const Vec t = frame.col(k);
+        velocity_dt.col(k) = frame.transpose() * (boundary_half_velocity_gradient_[b] * t);
+        stress_dt[k] = frame.transpose() * directional(boundary_half_stress_gradient_[b], t) * frame;
       }
-    } else {
-      (void)dt;
-      (void)t_new;
+      // Effective body force, with the damping, at time n.
+      const Vec force = frame.transpose() * (settings_.body_force - settings_.damping * boundary_velocity_[b]);
+
+      // Outgoing invariants at n+1.
+      double tangential_divergence = 0.0;  // div_t v_t
+      double p_rhs = -z_p * force[0];
+      for (int k = 1; k < Dim; ++k) {
+        tangential_divergence += velocity_dt(k, k);
+        p_rhs += lame * velocity_dt(k, k) - c_p * stress_dt[k](k, 0);
+      }
+      const double p_invariant = stress0(0, 0) - z_p * velocity0[0] -
+                                 c_p * dt * (stress_dn(0, 0) - z_p * velocity_dn[0]) + dt * p_rhs;
+      std::array<double, Dim> s_invariant{};
+      for (int k = 1; k < Dim; ++k) {
+        double s_rhs = shear * velocity_dt(0, k) - z_s * force[k];
+        for (int l = 1; l < Dim; ++l) s_rhs -= c_s * stress_dt[l](l, k);
+        s_invariant[k] = stress0(0, k) - z_s * velocity0[k] -
+                         c_s * dt * (stress_dn(0, k) - z_s * velocity_dn[k]) + dt * s_rhs;
+      }
+
+      // Incoming invariants from the prescribed velocity or traction.
+      Vec prescribed;
+      for (int d = 0; d < Dim; ++d) prescribed[d] = condition.time[d](t_new) * boundary_profile_[b][d];
+      prescribed = frame.transpose() * prescribed;
+      Mat stress1 = stress0;
+      Vec velocity1;
+      const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
+      for (int k = 0; k < Dim; ++k) {
+        const double invariant = k == 0 ? p_invariant : s_invariant[k];
+        const double impedance = k == 0 ? z_p : z_s;
+        if (velocity_given) {
+          velocity1[k] = prescribed[k];
+          stress1(0, k) = invariant + impedance * prescribed[k];
+        } else {
+          stress1(0, k) = prescribed[k];
+          velocity1[k] = impedance > 0.0 ? (prescribed[k] - invariant) / impedance : 0.0;
+        }
+        stress1(k, 0) = stress1(0, k);
+      }
+
+      // Tangential stresses: the velocity gradient in the frame, with its normal column
+      // recovered from the rates of t_n and t_k, then Hooke and the Jaumann spin.
+      Mat gradient = velocity_dt;  // gradient(i, j) = d v'_i / d x'_j
+      gradient(0, 0) =
+          ((stress1(0, 0) - stress0(0, 0)) / dt - lame * tangential_divergence) / modulus;
+      for (int k = 1; k < Dim; ++k)
+        gradient(k, 0) = (stress1(0, k) - stress0(0, k)) / (dt * shear) - velocity_dt(0, k);
+      const Mat spin = 0.5 * (gradient - gradient.transpose());
+      const Mat rotation_rate = spin * stress0 - stress0 * spin;
+      const double volumetric = gradient.trace();
+      for (int k = 1; k < Dim; ++k)
+        for (int l = 1; l < Dim; ++l)
+          stress1(k, l) = stress0(k, l) +
+                          dt * ((k == l ? lame * volumetric : 0.0) +
+                                shear * (gradient(k, l) + gradient(l, k)) + rotation_rate(k, l));
+
+      // Back to the global frame.
+      const Mat stress_global = frame * stress1 * frame.transpose();
+      const Vec velocity_global = frame * velocity1;
+      for (int d = 0; d < Dim; ++d) real_.velocity[d][i] = velocity_global[d];
+      for (int r = 0; r < Dim; ++r)
+        for (int c = r; c < Dim; ++c) real_.stress[stress_index<Dim>(r, c)][i] = stress_global(r, c);
+      if constexpr (Dim == 2) {  // sigma_zz: plane strain follows lambda tr d; plane stress 0
+        const auto zz = 3;
+        real_.stress[zz][i] = material_.plane_mode() == PlaneMode::plane_stress
+                                  ? 0.0
+                                  : boundary_stress_[b][zz] + dt * lame * volumetric;
+      }
     }
   }
 
-  /// Step 4 (updated Lagrangian): real particles move with the mean of v^n and
-  /// v^{n+1}, virtual particles with v^{n+1/2}.
-  void move(double dt) {
+  /// Step 4: hourglass control (see SolverSettings::hourglass_coefficient).
+  template <class Kernel>
+  void filter_hourglass(const Kernel& kernel) {
+    const ParticleView<Dim> set = real_.view();
+    const PointsView<Dim> points = points_of<Dim>(real_);
+    const double epsilon = settings_.hourglass_coefficient;
+    add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
+        set.count, [&](std::size_t i, StencilWeights<Dim>& w, StencilCounts& counts) {
+          const auto nb = real_from_real_.neighbors(i);
+          const StencilStatus status =
+              compute_stencil<Dim>(kernel, settings_.smoothing_length, set.position_of(i),
+                                   points, set.volume, nb, InterpolationKind::linear, w);
+          counts += status;
+          for (int d = 0; d < Dim; ++d) {
+            double average = 0.0;
+            for (std::size_t k = 0; k < nb.size(); ++k) average += w.value[k] * set.velocity[d][nb[k]];
+            filtered_velocity_[d][i] = status.no_neighbors ? set.velocity[d][i] : average;
+          }
+        }));
     parallel_for(real_.size(), [&](std::size_t i) {
+      const std::int32_t b = real_.boundary[i];
+      if (b >= 0 && boundaries_[static_cast<std::size_t>(b)].kind ==
+                        BoundaryCondition<Dim>::Kind::velocity)
+        return;  // prescribed velocities are not filtered
       for (int d = 0; d < Dim; ++d)
-        real_.position[d][i] += 0.5 * dt * (previous_velocity_[d][i] + real_.velocity[d][i]);
-    });
-    parallel_for(virtual_.size(), [&](std::size_t i) {
-      for (int d = 0; d < Dim; ++d) virtual_.position[d][i] += dt * virtual_.velocity[d][i];
+        real_.velocity[d][i] = (1.0 - epsilon) * real_.velocity[d][i] +
+                               epsilon * filtered_velocity_[d][i];
     });
   }
 
-  /// Neighbour lists of both half-steps and of the boundary pre-pass, and the
-  /// boundary normals n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body).
+  /// Step 5: displacements with the mean of v^n and v^{n+1}; in updated-Lagrangian
+  /// mode the real particles move so, the virtual ones with v^{n+1/2}.
+  void move(double dt) {
+    const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
+    parallel_for(real_.size(), [&](std::size_t i) {
+      for (int d = 0; d < Dim; ++d) {
+        const double du = 0.5 * dt * (previous_velocity_[d][i] + real_.velocity[d][i]);
+        real_.displacement[d][i] += du;
+        if (moving) real_.position[d][i] += du;
+      }
+    });
+    if (moving)
+      parallel_for(virtual_.size(), [&](std::size_t i) {
+        for (int d = 0; d < Dim; ++d) {
+          virtual_.displacement[d][i] += dt * virtual_.velocity[d][i];
+          virtual_.position[d][i] += dt * virtual_.velocity[d][i];
+        }
+      });
+  }
+
+  /// Neighbour lists of both half-steps and of the real set, and the boundary normals
+  /// n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body).
   void rebuild_neighbors() {
     const double radius = support_radius();
     const PointsView<Dim> real_points = points_of<Dim>(real_);
@@ -405,30 +611,19 @@ class TaylorSph {
     const CellList<Dim> real_cells(real_points, radius);
     virtual_from_real_ = real_cells.query(virtual_points);
     real_from_virtual_ = CellList<Dim>(virtual_points, radius).query(real_points);
-
-    const std::size_t nb = boundary_particles_.size();
-    for (auto& coordinate : boundary_points_.position) coordinate.resize(nb);
-    for (std::size_t b = 0; b < nb; ++b)
-      for (int d = 0; d < Dim; ++d)
-        boundary_points_.position[d][b] = real_.position[d][boundary_particles_[b]];
-    boundary_from_real_ = real_cells.query(points_of<Dim>(boundary_points_));
-    boundary_normal_.resize(nb);
-    boundary_velocity_gradient_.resize(nb);
-    boundary_stress_gradient_.resize(nb);
-    boundary_stress_.resize(nb);
-    boundary_velocity_.resize(nb);
+    if (!boundary_particles_.empty() || settings_.hourglass_coefficient > 0.0)
+      real_from_real_ = without_self(real_cells.query(real_points));
     visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) {
-      for (std::size_t b = 0; b < nb; ++b) {
-        const Vec x = real_.position_of(boundary_particles_[b]);
+      for (std::size_t b = 0; b < boundary_particles_.size(); ++b) {
+        const std::uint32_t i = boundary_particles_[b];
+        const Vec x = real_.position_of(i);
         Vec sum = Vec::Zero();
-        for (std::uint32_t j : boundary_from_real_.neighbors(b))
-          sum += real_.volume[j] *
-                 kernel_gradient<Dim>(kernel, Vec(x - real_.position_of(j)),
-                                      settings_.smoothing_length);
+        for (std::uint32_t j : real_from_real_.neighbors(i))
+          sum += real_.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - real_.position_of(j)),
+                                                        settings_.smoothing_length);
         const double norm = sum.norm();
         if (!(norm > 0.0))
-          throw std::invalid_argument("solver: boundary particle " +
-                                      std::to_string(boundary_particles_[b]) +
+          throw std::invalid_argument("solver: boundary particle " + std::to_string(i) +
                                       " has no neighbours to define its normal");
         boundary_normal_[b] = -sum / norm;
       }
@@ -444,20 +639,22 @@ class TaylorSph {
   double time_ = 0.0;
   SolverCounters counters_;
 
-  NeighborList virtual_from_real_;   ///< rows: virtual particles; entries: real
-  NeighborList real_from_virtual_;   ///< rows: real particles; entries: virtual
-  NeighborList boundary_from_real_;  ///< rows: boundary particles; entries: real
+  NeighborList virtual_from_real_;  ///< rows: virtual particles; entries: real
+  NeighborList real_from_virtual_;  ///< rows: real particles; entries: virtual
+  NeighborList real_from_real_;     ///< rows: real particles; entries: real, self excluded
 
-  std::vector<std::uint32_t> boundary_particles_;
-  struct {
-    std::array<std::vector<double>, Dim> position;
-  } boundary_points_;  ///< coordinates of the boundary particles, for the search
+  std::vector<std::uint32_t> boundary_particles_;  ///< real indices with a condition
+  std::vector<std::int32_t> boundary_slot_;        ///< real index -> slot, or -1
+  std::vector<Vec> boundary_profile_;              ///< profile(x0) per slot
   std::vector<Vec> boundary_normal_;
-  std::vector<Mat> boundary_velocity_gradient_;
-  std::vector<std::array<Vec, stress_count>> boundary_stress_gradient_;
-  std::vector<StressVector<Dim>> boundary_stress_;  ///< sigma^n at the boundary particles
-  std::vector<Vec> boundary_velocity_;
-  std::array<std::vector<double>, Dim> previous_velocity_;
+  std::vector<StressVector<Dim>> boundary_stress_;  ///< sigma^n
+  std::vector<Vec> boundary_velocity_;              ///< v^n
+  std::vector<StressGradient> boundary_stress_gradient_;  ///< grad sigma^n (real set)
+  std::vector<Mat> boundary_velocity_gradient_;           ///< grad v^n (real set)
+  std::vector<StressGradient> boundary_half_stress_gradient_;  ///< grad sigma^{n+1/2} (virtual)
+  std::vector<Mat> boundary_half_velocity_gradient_;           ///< grad v^{n+1/2} (virtual)
+  std::array<std::vector<double>, Dim> previous_velocity_;  ///< v^n of the real particles
+  std::array<std::vector<double>, Dim> filtered_velocity_;  ///< hourglass filter scratch
 };
 
 }  // namespace tsph
