@@ -68,6 +68,8 @@ class ParticleSet {
   std::vector<std::uint32_t> id;
   /// Index into the case's boundary-condition table, or kNoBoundary.
   std::vector<std::int32_t> boundary;
+  /// User group number (from a particle file; 0 by default), for region selection.
+  std::vector<std::int32_t> group;
 
   static constexpr std::int32_t kNoBoundary = -1;
 
@@ -86,6 +88,7 @@ class ParticleSet {
     f(volume);
     f(id);
     f(boundary);
+    f(group);
   }
 
   /// Resizes every field; new particles are zeroed, ids numbered, unbounded.

@@ -138,6 +138,10 @@ inline NeighborList without_self(const NeighborList& list) {
   return out;
 }
 
+/// A particle is on a surface when |sum_J V_J grad W_IJ| exceeds this fraction of
+/// sum_J |V_J grad W_IJ| (about 0.5 to 1 on a face, below 0.05 inside a lattice).
+inline constexpr double kSurfaceThreshold = 0.25;
+
 template <int Dim>
 class TaylorSph {
  public:
@@ -459,6 +463,11 @@ class TaylorSph {
     for (std::size_t b = 0; b < boundary_particles_.size(); ++b) {
       const std::uint32_t i = boundary_particles_[b];
       const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[i])];
+      if (!boundary_on_surface_[b]) {  // a velocity held inside the body: imposed directly
+        for (int d = 0; d < Dim; ++d)
+          real_.velocity[d][i] = condition.time[d](t_new) * boundary_profile_[b][d];
+        continue;
+      }
       const Vec& n = boundary_normal_[b];
       const Mat frame = normal_frame<Dim>(n);
       const double density = real_.density[i];
@@ -614,21 +623,67 @@ class TaylorSph {
     if (!boundary_particles_.empty() || settings_.hourglass_coefficient > 0.0)
       real_from_real_ = without_self(real_cells.query(real_points));
     visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) {
+      const bool first_build = counters_.neighbor_builds == 0;
+      if (first_build) boundary_on_surface_.assign(boundary_particles_.size(), 1);
       for (std::size_t b = 0; b < boundary_particles_.size(); ++b) {
         const std::uint32_t i = boundary_particles_[b];
         const Vec x = real_.position_of(i);
         Vec sum = Vec::Zero();
-        for (std::uint32_t j : real_from_real_.neighbors(i))
-          sum += real_.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - real_.position_of(j)),
-                                                        settings_.smoothing_length);
+        double magnitude = 0.0;  // sum of |V_J grad W|: the scale of the sum
+        for (std::uint32_t j : real_from_real_.neighbors(i)) {
+          const Vec g = real_.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - real_.position_of(j)),
+                                                               settings_.smoothing_length);
+          sum += g;
+          magnitude += g.norm();
+        }
         const double norm = sum.norm();
-        if (!(norm > 0.0))
-          throw std::invalid_argument("solver: boundary particle " + std::to_string(i) +
-                                      " has no neighbours to define its normal");
-        boundary_normal_[b] = -sum / norm;
+        // On a surface the kernel gradients do not cancel; inside they nearly do.
+        const bool on_surface = norm > kSurfaceThreshold * magnitude;
+        if (first_build) {
+          boundary_on_surface_[b] = on_surface;
+          const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[i])];
+          if (!on_surface && condition.kind == BoundaryCondition<Dim>::Kind::traction)
+            throw std::invalid_argument(
+                "boundary condition '" + condition.name + "': real particle " +
+                std::to_string(real_.id[i]) +
+                " is inside the body (no free surface there); a traction applies only to "
+                "surface particles: shrink the region to the surface");
+        }
+        const Vec kernel_normal = norm > 0.0 ? Vec(-sum / norm) : Vec(Vec::Unit(0));
+        boundary_normal_[b] = face_normal(i, kernel_normal);
       }
     });
     ++counters_.neighbor_builds;
+  }
+
+  /// The normal of the face a boundary particle's condition applies to: the direction
+  /// of least spread of the particle and its neighbours under the same condition
+  /// (principal components), oriented like `kernel_normal`. Where those particles do
+  /// not lie on a (Dim-1)-plane (an edge between two faces of one condition, a lone
+  /// particle) the kernel normal -sum V grad W is kept. Unlike the kernel normal, this
+  /// gives the face normal at corners and next to them, where half volumes and the
+  /// missing neighbours tilt the kernel sum.
+  Vec face_normal(std::uint32_t i, const Vec& kernel_normal) const {
+    if constexpr (Dim == 1) {
+      (void)i;
+      return kernel_normal;
+    } else {
+      const std::int32_t condition = real_.boundary[i];
+      std::vector<Vec> points{real_.position_of(i)};
+      for (std::uint32_t j : real_from_real_.neighbors(i))
+        if (real_.boundary[j] == condition) points.push_back(real_.position_of(j));
+      if (points.size() < static_cast<std::size_t>(Dim)) return kernel_normal;
+      Vec mean = Vec::Zero();
+      for (const Vec& x : points) mean += x;
+      mean /= static_cast<double>(points.size());
+      Mat covariance = Mat::Zero();
+      for (const Vec& x : points) covariance += (x - mean) * (x - mean).transpose();
+      Eigen::SelfAdjointEigenSolver<Mat> eigen(covariance);
+      const auto& spread = eigen.eigenvalues();  // increasing
+      if (!(spread[1] > 0.0) || spread[0] > 0.1 * spread[1]) return kernel_normal;
+      Vec normal = eigen.eigenvectors().col(0);
+      return normal.dot(kernel_normal) >= 0.0 ? normal : Vec(-normal);
+    }
   }
 
   ParticleSet<Dim> real_;
@@ -647,6 +702,7 @@ class TaylorSph {
   std::vector<std::int32_t> boundary_slot_;        ///< real index -> slot, or -1
   std::vector<Vec> boundary_profile_;              ///< profile(x0) per slot
   std::vector<Vec> boundary_normal_;
+  std::vector<char> boundary_on_surface_;  ///< decided at the first build
   std::vector<StressVector<Dim>> boundary_stress_;  ///< sigma^n
   std::vector<Vec> boundary_velocity_;              ///< v^n
   std::vector<StressGradient> boundary_stress_gradient_;  ///< grad sigma^n (real set)

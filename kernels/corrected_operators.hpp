@@ -45,6 +45,8 @@ inline std::string_view to_string(InterpolationKind kind) {
 /// Ill-conditioning threshold on the infinity-norm condition number of the
 /// (dimensionless) correction and moment matrices.
 inline constexpr double kMaxConditionNumber = 1e10;
+/// Smallest det / prod(diagonal) of a correction or moment matrix taken as regular.
+inline constexpr double kMinHadamardRatio = 1e-10;
 
 /// What happened while computing one stencil; summed into run counters.
 struct StencilStatus {
@@ -65,16 +67,21 @@ struct StencilWeights {
   }
 };
 
-/// Inverse of a small square matrix, or nullopt-like failure reported through `ok`
-/// when it is singular or its condition number exceeds kMaxConditionNumber.
+/// Inverse of a small symmetric positive semi-definite matrix, with `ok` false when it
+/// is singular or ill-conditioned. Two tests, both needed: det / prod(diagonal)
+/// (Hadamard's ratio, 1 for a diagonal matrix, round-off for a rank-deficient one,
+/// whose cofactors are round-off too, so that the explicit inverse of a rank-1 matrix
+/// can look well scaled), and the infinity-norm condition number of the inverse.
 template <int N>
 Eigen::Matrix<double, N, N> checked_inverse(const Eigen::Matrix<double, N, N>& m, bool& ok) {
   Eigen::Matrix<double, N, N> inverse;
   ok = false;
   const double norm = m.cwiseAbs().rowwise().sum().maxCoeff();
   if (!(norm > 0.0) || !std::isfinite(norm)) return inverse.setZero();
+  const double diagonal_product = m.diagonal().prod();
   const double det = m.determinant();
-  if (det == 0.0 || !std::isfinite(det)) return inverse.setZero();
+  if (!(diagonal_product > 0.0) || !(det > kMinHadamardRatio * diagonal_product))
+    return inverse.setZero();
   inverse = m.inverse();
   const double condition = norm * inverse.cwiseAbs().rowwise().sum().maxCoeff();
   ok = std::isfinite(condition) && condition < kMaxConditionNumber;

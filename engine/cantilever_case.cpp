@@ -1,0 +1,243 @@
+#include "engine/cantilever_case.hpp"
+
+#include "engine/lattice.hpp"
+#include "engine/region.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace tsph {
+namespace {
+std::string number(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+}  // namespace
+
+template <int Dim>
+double CantileverSettings<Dim>::second_moment() const {
+  const double thickness = Dim == 2 ? 1.0 : width;
+  return thickness * depth * depth * depth / 12.0;
+}
+
+template <int Dim>
+double CantileverSettings<Dim>::first_mode_frequency() const {
+  const double area = Dim == 2 ? depth : depth * width;
+  const double beta = 1.875104 / length;
+  return beta * beta * std::sqrt(young_modulus * second_moment() / (density * area));
+}
+
+template <int Dim>
+std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
+  std::vector<InputError> errors;
+  auto positive = [&](const char* name, double value) {
+    if (!(value > 0.0) || !std::isfinite(value))
+      errors.push_back({name, number(value), "must be a positive finite number"});
+  };
+  positive("length", s.length);
+  positive("depth", s.depth);
+  if (Dim == 3) positive("width", s.width);
+  positive("young_modulus", s.young_modulus);
+  positive("density", s.density);
+  positive("end_time", s.end_time);
+  positive("tolerance", s.tolerance);
+  if (!(s.poisson_ratio > -1.0 && s.poisson_ratio < 0.5))
+    errors.push_back({"poisson_ratio", number(s.poisson_ratio), "must lie in (-1, 0.5)"});
+  if (!std::isfinite(s.load)) errors.push_back({"load", number(s.load), "must be finite"});
+  if (s.nodes_x < 3 || s.nodes_y < 3 || (Dim == 3 && s.nodes_z < 3))
+    errors.push_back({"nodes", std::to_string(s.nodes_x) + " x " + std::to_string(s.nodes_y),
+                      "needs at least 3 particles along each axis"});
+  else {
+    const double dx = s.spacing();
+    const double dy = s.depth / (s.nodes_y - 1);
+    if (std::abs(dy - dx) > 1e-9 * dx)
+      errors.push_back({"nodes_y", std::to_string(s.nodes_y),
+                        "must give the spacing of x, depth / (nodes_y - 1) = " + number(dx)});
+    if (Dim == 3 && std::abs(s.width / (s.nodes_z - 1) - dx) > 1e-9 * dx)
+      errors.push_back({"nodes_z", std::to_string(s.nodes_z),
+                        "must give the spacing of x, width / (nodes_z - 1) = " + number(dx)});
+  }
+  if (!(s.alpha > 0.5) || !(s.alpha <= 4.0))
+    errors.push_back({"alpha", number(s.alpha), "must lie in (0.5, 4]"});
+  if (!(s.cfl > 0.0) || !(s.cfl <= 1.0))
+    errors.push_back({"cfl", number(s.cfl), "must lie in (0, 1]"});
+  if (!(s.hourglass >= 0.0 && s.hourglass < 1.0))
+    errors.push_back({"hourglass", number(s.hourglass), "must lie in [0, 1)"});
+  return errors;
+}
+
+template <int Dim>
+double CantileverExact<Dim>::tip_shear(double y) const {
+  return s_.load / (2.0 * s_.second_moment()) * (0.25 * s_.depth * s_.depth - y * y);
+}
+
+template <int Dim>
+double CantileverExact<Dim>::deflection(double x, double y) const {
+  const double p = s_.load, l = s_.length, d = s_.depth;
+  const double i = s_.second_moment();
+  if constexpr (Dim == 2) {
+    double e = s_.young_modulus, nu = s_.poisson_ratio;
+    if (s_.plane_mode == PlaneMode::plane_strain) {
+      e /= 1.0 - nu * nu;
+      nu /= 1.0 - nu;
+    }
+    // Seed eq. (5).
+    return p / (6.0 * e * i) *
+           (3.0 * nu * y * y * (l - x) + (4.0 + 5.0 * nu) * d * d * x / 4.0 + (3.0 * l - x) * x * x);
+  } else {
+    (void)y;
+    const double shear = s_.young_modulus / (2.0 * (1.0 + s_.poisson_ratio));
+    const double area = s_.depth * s_.width;
+    return p / (6.0 * s_.young_modulus * i) * (3.0 * l - x) * x * x +
+           p * x / (5.0 / 6.0 * shear * area);
+  }
+}
+
+template <int Dim>
+CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
+  if (const auto errors = validate(s); !errors.empty()) {
+    std::string message;
+    for (const auto& e : errors) {
+      if (!message.empty()) message += "\n";
+      message += e.message();
+    }
+    throw std::invalid_argument(message);
+  }
+  using Vec = Vector<Dim>;
+  const double dx = s.spacing();
+  LatticeBox<Dim> box;
+  box.spacing = dx;
+  box.lower[0] = 0.0;
+  box.lower[1] = -0.5 * s.depth;
+  box.node_count[0] = s.nodes_x;
+  box.node_count[1] = s.nodes_y;
+  if constexpr (Dim == 3) {
+    box.lower[2] = -0.5 * s.width;
+    box.node_count[2] = s.nodes_z;
+  }
+  ParticleSet<Dim> real = make_real_lattice(box, s.density);
+  ParticleSet<Dim> virtual_particles = make_virtual_lattice(box, s.density);
+
+  const CantileverExact<Dim> exact(s);
+  const double omega = s.first_mode_frequency();
+  const double period = 2.0 * M_PI / omega;
+  const double ramp = s.ramp_time >= 0.0 ? s.ramp_time : period;
+  const TimeFunction load_in_time =
+      ramp > 0.0 ? TimeFunction::linear_ramp(1.0, 0.0, ramp) : TimeFunction::constant(1.0);
+
+  // Conditions: free surfaces first, then the loaded tip, then the clamp (later
+  // assignments win at the edges).
+  std::vector<BoundaryCondition<Dim>> conditions;
+  conditions.push_back(BoundaryCondition<Dim>::free("free surface"));
+  auto tip_components = BoundaryCondition<Dim>::filled(TimeFunction::constant(0.0));
+  tip_components[1] = load_in_time;
+  conditions.push_back(BoundaryCondition<Dim>::traction(
+      tip_components, "tip shear", [exact](const Vec& x) {
+        Vec t = Vec::Zero();
+        t[1] = exact.tip_shear(x[1]);
+        return t;
+      }));
+  conditions.push_back(BoundaryCondition<Dim>::fixed("clamp"));
+  const double tol = 1e-6 * dx;
+  Vec upper;
+  for (int d = 0; d < Dim; ++d)
+    upper[d] = box.lower[d] + static_cast<double>(box.node_count[d] - 1) * dx;
+  for (int d = 1; d < Dim; ++d) {
+    assign_boundary(real, Region<Dim>::half_space("top", upper, Vec::Unit(d)), 0, tol);
+    assign_boundary(real, Region<Dim>::half_space("bottom", box.lower, Vec(-Vec::Unit(d))), 0, tol);
+  }
+  assign_boundary(real, Region<Dim>::half_space("tip", upper, Vec::Unit(0)), 1, tol);
+  assign_boundary(real, Region<Dim>::half_space("clamp", box.lower, Vec(-Vec::Unit(0))), 2, tol);
+
+  SolverSettings<Dim> settings;
+  settings.smoothing_length = s.alpha * dx;
+  settings.kernel = s.kernel;
+  settings.kinematics = s.kinematics;
+  settings.damping = s.damping >= 0.0 ? s.damping : 2.0 * omega;
+  settings.hourglass_coefficient = s.hourglass;
+  const LinearElastic<Dim> material(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode);
+  TaylorSph<Dim> solver(std::move(real), std::move(virtual_particles), material, settings,
+                        conditions);
+
+  // The tip particle on the axis, and the particles on the axis.
+  const auto& r0 = solver.real();
+  std::size_t tip = 0;
+  std::vector<std::size_t> axis;
+  for (std::size_t i = 0; i < r0.size(); ++i) {
+    bool on_axis = true;
+    for (int d = 1; d < Dim; ++d) on_axis = on_axis && std::abs(r0.initial_position[d][i]) < tol;
+    if (!on_axis) continue;
+    axis.push_back(i);
+    if (std::abs(r0.initial_position[0][i] - s.length) < tol) tip = i;
+  }
+
+  CantileverResult result;
+  result.tip_exact = exact.tip_deflection();
+  result.time_step = s.cfl * dx / material.p_wave_speed(s.density);
+  result.real_particles = solver.real().size();
+  result.virtual_particles = solver.virtual_particles().size();
+  const double dt = result.time_step;
+  // Converged: after the ramp, the tip moves slower than tolerance x (tip deflection / T1).
+  const double velocity_tolerance = s.tolerance * std::abs(result.tip_exact) / period;
+  const auto start = std::chrono::steady_clock::now();
+  std::int64_t report_every = std::max<std::int64_t>(1, static_cast<std::int64_t>(0.02 / dt));
+  while (solver.time() < s.end_time) {
+    solver.step(dt);
+    const double tip_velocity = std::abs(solver.real().velocity[1][tip]);
+    if (s.progress && solver.counters().steps % report_every == 0)
+      s.progress(solver.time(), solver.real().displacement[1][tip], solver.kinetic_energy());
+    if (!std::isfinite(tip_velocity))
+      throw std::runtime_error("cantilever: the solution diverged at t = " +
+                               number(solver.time()));
+    if (solver.time() > ramp + 0.25 * period && tip_velocity < velocity_tolerance) {
+      result.converged = true;
+      break;
+    }
+  }
+  const auto stop = std::chrono::steady_clock::now();
+  result.wall_seconds = std::chrono::duration<double>(stop - start).count();
+  result.time = solver.time();
+  result.steps = solver.counters().steps;
+  result.counters = solver.counters();
+  result.particle_steps_per_second =
+      static_cast<double>(result.real_particles) * static_cast<double>(result.steps) /
+      std::max(result.wall_seconds, 1e-12);
+
+  const auto& r = solver.real();
+  result.tip_deflection = r.displacement[1][tip];
+  result.tip_error_percent =
+      100.0 * std::abs(result.tip_deflection - result.tip_exact) / std::abs(result.tip_exact);
+  for (std::size_t i : axis) {
+    result.axis_x.push_back(r.initial_position[0][i]);
+    result.axis_uy.push_back(r.displacement[1][i]);
+    result.axis_exact.push_back(exact.deflection(r.initial_position[0][i], 0.0));
+  }
+  result.axis_l2_error_percent = relative_l2_percent(result.axis_uy, result.axis_exact);
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    std::array<double, 3> x{}, u{};
+    std::array<double, 6> sigma{};
+    for (int d = 0; d < Dim; ++d) {
+      x[static_cast<std::size_t>(d)] = r.initial_position[d][i];
+      u[static_cast<std::size_t>(d)] = r.displacement[d][i];
+    }
+    for (int m = 0; m < stress_component_count<Dim>; ++m) sigma[static_cast<std::size_t>(m)] = r.stress[m][i];
+    result.initial_position.push_back(x);
+    result.displacement.push_back(u);
+    result.stress.push_back(sigma);
+  }
+  return result;
+}
+
+template struct CantileverSettings<2>;
+template struct CantileverSettings<3>;
+template class CantileverExact<2>;
+template class CantileverExact<3>;
+template std::vector<InputError> validate(const CantileverSettings<2>&);
+template std::vector<InputError> validate(const CantileverSettings<3>&);
+template CantileverResult run_cantilever(const CantileverSettings<2>&);
+template CantileverResult run_cantilever(const CantileverSettings<3>&);
+
+}  // namespace tsph

@@ -1,0 +1,86 @@
+// The cantilever of seed section 4.2 (reference README section 2): a beam
+// 0 <= x <= L, |y| <= D/2 (and |z| <= B/2 in 3D), clamped at x = 0, loaded at x = L by
+// the parabolic shear traction of the exact solution, brought to rest by a load ramp
+// and velocity damping (dynamic relaxation). 2D: plane stress or plane strain against
+// Timoshenko & Goodier (seed eqs. 5-6); 3D: against Timoshenko beam theory.
+#pragma once
+
+#include "engine/bar_case.hpp"  // InputError
+#include "engine/taylor_sph.hpp"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace tsph {
+
+template <int Dim>
+struct CantileverSettings {
+  static_assert(Dim == 2 || Dim == 3, "the cantilever is a 2D or 3D case");
+  double length = 1.0;   ///< L (m)
+  double depth = 0.1;    ///< D (m), along y (the load direction)
+  double width = 0.1;    ///< B (m), along z (3D only)
+  int nodes_x = 101;     ///< real particles along x (dx = L / (nodes_x - 1))
+  int nodes_y = 11;      ///< along y; must give the same spacing as x
+  int nodes_z = 11;      ///< along z (3D)
+  double young_modulus = 8e7;
+  double poisson_ratio = 0.3;
+  double density = 2000.0;
+  double load = Dim == 2 ? 1000.0 : 100.0;  ///< P (N; per unit thickness in 2D)
+  PlaneMode plane_mode = PlaneMode::plane_stress;
+  double alpha = 1.2;
+  double cfl = 0.9;
+  KernelKind kernel = KernelKind::cubic_spline;
+  Kinematics kinematics = Kinematics::updated_lagrangian;
+  double damping = -1.0;       ///< c (1/s); < 0: 2 omega_1 (critical for the first mode)
+  double ramp_time = -1.0;     ///< load ramp (s); < 0: one first-mode period
+  double hourglass = 0.02;     ///< hourglass filter coefficient
+  double end_time = 3.0;       ///< give up after this simulated time (s)
+  double tolerance = 1e-5;     ///< converged when |tip velocity| < tolerance * tip_exact / T1
+  std::function<void(double time, double tip, double kinetic)> progress;  ///< optional
+
+  double spacing() const { return length / (nodes_x - 1); }
+  double second_moment() const;            ///< I: D^3/12 (2D), B D^3/12 (3D)
+  double first_mode_frequency() const;     ///< omega_1, Euler-Bernoulli (rad/s)
+};
+
+template <int Dim>
+std::vector<InputError> validate(const CantileverSettings<Dim>& settings);
+
+/// Exact static solution: Timoshenko & Goodier in 2D (plane strain by E' = E/(1-nu^2),
+/// nu' = nu/(1-nu)); Timoshenko beam (shear coefficient 5/6) in 3D.
+template <int Dim>
+class CantileverExact {
+ public:
+  explicit CantileverExact(const CantileverSettings<Dim>& settings) : s_(settings) {}
+  /// Vertical displacement of the point initially at x (on the axis y = z = 0 in 3D).
+  double deflection(double x, double y) const;
+  double tip_deflection() const { return deflection(s_.length, 0.0); }
+  /// The parabolic shear traction at the tip, per unit area, at height y.
+  double tip_shear(double y) const;
+
+ private:
+  CantileverSettings<Dim> s_;
+};
+
+struct CantileverResult {
+  bool converged = false;
+  double time = 0.0;                   ///< simulated time reached
+  std::int64_t steps = 0;
+  double time_step = 0.0;
+  double wall_seconds = 0.0;
+  double particle_steps_per_second = 0.0;
+  std::size_t real_particles = 0, virtual_particles = 0;
+  double tip_deflection = 0.0, tip_exact = 0.0, tip_error_percent = 0.0;
+  std::vector<double> axis_x, axis_uy, axis_exact;  ///< particles on the axis
+  double axis_l2_error_percent = 0.0;
+  SolverCounters counters;
+  /// Every real particle: initial position, displacement, stress (for CSV output).
+  std::vector<std::array<double, 3>> initial_position, displacement;
+  std::vector<std::array<double, 6>> stress;
+};
+
+template <int Dim>
+CantileverResult run_cantilever(const CantileverSettings<Dim>& settings);
+
+}  // namespace tsph
