@@ -81,9 +81,9 @@ struct WendlandC2 {
     if (q >= 2.0) return 0.0;
     const double c = sigma / (power_of_h<Dim>(h) * h);
     const double t = 1.0 - 0.5 * q;
-    // d/dq [t^3 (1.5q + 1)] = -1.5 t^2 (1.5q + 1) + 1.5 t^3 = -3.75 q t^2
+    // d/dq [t^3 (1.5q + 1)] = -1.5 t^2 (1.5q + 1) + 1.5 t^3 = -3 q t^2
     // d/dq [t^4 (2q + 1)]   = -2 t^3 (2q + 1) + 2 t^4      = -5 q t^3
-    if constexpr (Dim == 1) return c * (-3.75 * q * t * t);
+    if constexpr (Dim == 1) return c * (-3.0 * q * t * t);
     else return c * (-5.0 * q * t * t * t);
   }
 };
@@ -100,7 +100,7 @@ struct QuinticSpline {
                                              : 3.375 / (120.0 * std::numbers::pi);
 
   double value(double r, double h) const {
-    const double s = 1.5 * r / h;
+    const double s = 1.5 * (r / h);  // (2h)/h is exactly 2, so s is exactly 3 at 2h
     if (s >= 3.0) return 0.0;
     const double c = sigma / power_of_h<Dim>(h);
     double w = pow5(3.0 - s);
@@ -109,7 +109,7 @@ struct QuinticSpline {
     return c * w;
   }
   double derivative(double r, double h) const {
-    const double s = 1.5 * r / h;
+    const double s = 1.5 * (r / h);
     if (s >= 3.0) return 0.0;
     const double c = 1.5 * sigma / (power_of_h<Dim>(h) * h);
     double dw = -5.0 * pow4(3.0 - s);

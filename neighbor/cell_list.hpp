@@ -62,6 +62,10 @@ class CellList {
       lower_.setZero();
       upper.setZero();
     }
+    for (int d = 0; d < Dim; ++d)
+      if (!std::isfinite(upper[d] - lower_[d]))
+        throw std::invalid_argument("neighbour search: the points span more than the largest "
+                                    "double along axis " + std::to_string(d));
     // Cells slightly larger than the radius: a point exactly on the radius then lies
     // at most one cell away even after the rounding of the binning.
     cell_size_ = radius_ * (1.0 + 1e-9);

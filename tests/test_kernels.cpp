@@ -38,11 +38,6 @@ struct KernelName {
   }
 };
 
-/// Suspected bug (see the report and WendlandC2Bug below): the 1D Wendland C2 derivative
-/// is 1.25 times too large, so the tests comparing it with finite differences are
-/// skipped for that one kernel until the header is fixed.
-template <class Kernel>
-constexpr bool kKnownDerivativeBug = std::is_same_v<Kernel, WendlandC2<1>>;
 
 constexpr std::array<double, 2> kSmoothingLengths = {0.37, 1.0};
 
@@ -114,11 +109,6 @@ TYPED_TEST(KernelTest, IntegratesToOne) {
   }
 }
 
-/// Suspected (minor) bug, see QuinticSpline.VanishesExactlyAtTwoH below: the quintic
-/// computes s = 1.5 * r / h as (1.5 r) / h, which rounds below 3 at r = 2h for some h.
-template <class Kernel>
-constexpr bool kKnownEdgeRoundOffBug =
-    std::is_same_v<Kernel, QuinticSpline<KernelDim<Kernel>::value>>;
 
 // Support radius is 2h: W and dW/dr vanish beyond it, and W reaches zero continuously
 // (no jump at the edge).
@@ -141,9 +131,6 @@ TYPED_TEST(KernelTest, HasCompactSupportOfTwoH) {
 // A point exactly on the support radius (r = 2h, as a neighbour search includes it)
 // gets exactly zero weight and zero derivative.
 TYPED_TEST(KernelTest, VanishesExactlyAtTwoH) {
-  if constexpr (kKnownEdgeRoundOffBug<TypeParam>)
-    GTEST_SKIP() << "suspected bug: QuinticSpline gives W(2h) ~ 1e-78, not 0, for h = 0.37 "
-                    "(s = 1.5 * r / h rounds to 3 - 4e-16); see QuinticSpline.VanishesExactly";
   const TypeParam kernel;
   for (double h : {0.37, 1.0, 0.1, 0.3, 0.7, 1.1, 2.9}) {
     const double edge = kSupportFactor * h;
@@ -174,9 +161,6 @@ TYPED_TEST(KernelTest, IsPositiveAndNonIncreasing) {
 // derivative(r, h) is dW/dr: it matches a central difference of value() across the
 // support (away from the knots), which catches a wrong constant, sign or power of h.
 TYPED_TEST(KernelTest, DerivativeMatchesFiniteDifference) {
-  if constexpr (kKnownDerivativeBug<TypeParam>)
-    GTEST_SKIP() << "suspected bug: WendlandC2<1>::derivative is 1.25x too large "
-                    "(-3.75 q t^2 instead of -3 q t^2); see WendlandC2Bug";
   const TypeParam kernel;
   for (double h : kSmoothingLengths) {
     SCOPED_TRACE("h = " + std::to_string(h));
@@ -198,9 +182,6 @@ TYPED_TEST(KernelTest, DerivativeMatchesFiniteDifference) {
 // catches a wrong coefficient in one piece only. The one-sided values are extrapolated
 // to the knot with their own slopes, so only a jump remains.
 TYPED_TEST(KernelTest, ValueAndDerivativeAreContinuousAtKnots) {
-  if constexpr (kKnownDerivativeBug<TypeParam>)
-    GTEST_SKIP() << "suspected bug: WendlandC2<1>::derivative is 1.25x too large, so the "
-                    "slope-extrapolated values disagree; see WendlandC2Bug";
   const TypeParam kernel;
   const double h = 0.37;
   const double scale = kernel.value(0.0, h);
@@ -256,9 +237,6 @@ TYPED_TEST(KernelTest, GradientIsRadialAndAntisymmetric) {
 // Each component of kernel_gradient is the partial derivative of W(|x|): central
 // differences per component at random points.
 TYPED_TEST(KernelTest, GradientMatchesFiniteDifferencePerComponent) {
-  if constexpr (kKnownDerivativeBug<TypeParam>)
-    GTEST_SKIP() << "suspected bug: WendlandC2<1>::derivative is 1.25x too large; "
-                    "see WendlandC2Bug";
   constexpr int dim = KernelDim<TypeParam>::value;
   using Vec = Eigen::Matrix<double, dim, 1>;
   const TypeParam kernel;
@@ -282,12 +260,11 @@ TYPED_TEST(KernelTest, GradientMatchesFiniteDifferencePerComponent) {
   }
 }
 
-// Demonstrates the suspected bug in WendlandC2<1>::derivative. For W = sigma/h t^3 (1.5q+1),
+// Regression test for a bug found in WendlandC2<1>::derivative. For W = sigma/h t^3 (1.5q+1),
 // t = 1 - q/2: dW/dq = -1.5 t^2 (1.5 q + 1) + 1.5 t^3 = 1.5 t^2 (t - 1.5 q - 1) = -3 q t^2,
-// not -3.75 q t^2 as coded (the comment in the header has the same slip). Remove the
-// GTEST_SKIP once the header is fixed; the typed tests above then cover it as well.
+// not -3.75 q t^2 as coded (the comment in the header has the same slip). Fixed; kept as
+// a regression test.
 TEST(WendlandC2Bug, OneDimensionalDerivativeIsMinusThreeQTSquared) {
-  GTEST_SKIP() << "known bug in kernels/smoothing_kernels.hpp, left for the owner to fix";
   const WendlandC2<1> kernel;
   const double h = 0.37;
   for (double q : {0.1, 0.5, 1.0, 1.5, 1.9}) {
@@ -300,14 +277,13 @@ TEST(WendlandC2Bug, OneDimensionalDerivativeIsMinusThreeQTSquared) {
   }
 }
 
-// Demonstrates the suspected round-off bug at the quintic's support edge: with h = 0.37,
+// Regression test for a round-off bug at the quintic's support edge: with h = 0.37,
 // 1.5 * (2h) / h evaluates to 2.9999999999999996, so W(2h) = sigma/h^d (3 - s)^5 ~ 1e-78
 // and dW/dr ~ -3e-62 instead of exactly zero. Harmless in magnitude, but a stencil whose
 // only neighbour lies exactly on the radius is then not reported as no_neighbors (unlike
 // the cubic and Wendland kernels). Computing s = 1.5 * (r / h) fixes it, since
-// (2h) / h == 2 exactly. Remove the GTEST_SKIP once fixed.
+// (2h) / h == 2 exactly. Fixed that way.
 TEST(QuinticSpline, VanishesExactlyAtTwoH) {
-  GTEST_SKIP() << "known round-off bug in kernels/smoothing_kernels.hpp, left for the owner";
   const double h = 0.37;
   EXPECT_EQ(QuinticSpline<1>{}.value(2.0 * h, h), 0.0);
   EXPECT_EQ(QuinticSpline<2>{}.value(2.0 * h, h), 0.0);
