@@ -92,8 +92,10 @@ class LinearElastic {
   /// Longitudinal wave speed c = sqrt(M / rho): sets the time step, dt = CFL dx / c.
   double p_wave_speed(double density) const { return std::sqrt(p_wave_modulus() / density); }
 
-  /// Stress rate of seed eq. (1a): elastic part D : d plus the Jaumann terms.
-  StressVector<Dim> stress_rate(const Matrix<Dim>& grad_v, const StressVector<Dim>& stress) const {
+  /// Stress rate of seed eq. (1a): elastic part D : d plus, if `objective`, the
+  /// Jaumann terms omega sigma - sigma omega (left out in geometrically linear runs).
+  StressVector<Dim> stress_rate(const Matrix<Dim>& grad_v, const StressVector<Dim>& stress,
+                                bool objective = true) const {
     if constexpr (Dim == 1) {
       return {young_ * grad_v(0, 0)};
     } else {
@@ -105,8 +107,10 @@ class LinearElastic {
       // Plane stress: sigma_zz = 0 eliminates d_zz, leaving model_lame() in place of lambda.
       rate = model_lame() * d.trace() * Eigen::Matrix3d::Identity() + 2.0 * shear_ * d;
       if (Dim == 2 && plane_mode_ == PlaneMode::plane_stress) rate(2, 2) = 0.0;
-      const Eigen::Matrix3d sigma = to_tensor<Dim>(stress);
-      rate += omega * sigma - sigma * omega;
+      if (objective) {
+        const Eigen::Matrix3d sigma = to_tensor<Dim>(stress);
+        rate += omega * sigma - sigma * omega;
+      }
       return from_tensor<Dim>(rate);
     }
   }

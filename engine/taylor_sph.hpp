@@ -138,9 +138,9 @@ inline NeighborList without_self(const NeighborList& list) {
   return out;
 }
 
-/// A particle is on a surface when |sum_J V_J grad W_IJ| exceeds this fraction of
-/// sum_J |V_J grad W_IJ| (about 0.5 to 1 on a face, below 0.05 inside a lattice).
-inline constexpr double kSurfaceThreshold = 0.25;
+/// A particle is on a surface when none of its real neighbours lies within 60 degrees
+/// of the outward kernel normal -sum_J V_J grad W_IJ (cosine below this value).
+inline constexpr double kSurfaceCosine = 0.5;
 
 template <int Dim>
 class TaylorSph {
@@ -187,10 +187,12 @@ class TaylorSph {
     boundary_normal_.resize(nb);
     boundary_stress_.resize(nb);
     boundary_velocity_.resize(nb);
+    boundary_density_.resize(nb);
     boundary_stress_gradient_.resize(nb);
     boundary_velocity_gradient_.resize(nb);
     boundary_half_stress_gradient_.resize(nb);
     boundary_half_velocity_gradient_.resize(nb);
+    boundary_half_gradient_complete_.assign(nb, 0);
     for (auto& v : previous_velocity_) v.resize(real_.size());
     if (settings_.hourglass_coefficient > 0.0)
       for (auto& v : filtered_velocity_) v.resize(real_.size());
@@ -376,7 +378,7 @@ class TaylorSph {
           counts += status;
           if (status.no_neighbors) return;  // isolated: keeps its values (counted)
           const LocalState s = evaluate(source, nb, w);
-          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress);
+          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress, moving);
           for (int m = 0; m < stress_count; ++m)
             target.stress[m][q] = s.stress[m] + half_dt * rate[m];
           for (int d = 0; d < Dim; ++d)
@@ -414,8 +416,9 @@ class TaylorSph {
             boundary_half_velocity_gradient_[static_cast<std::size_t>(b)] = s.velocity_gradient;
             boundary_half_stress_gradient_[static_cast<std::size_t>(b)] =
                 stress_gradient(source, nb, w, s.stress);
+            boundary_half_gradient_complete_[static_cast<std::size_t>(b)] = !status.gradient_fallback;
           }
-          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress);
+          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress, moving);
           for (int m = 0; m < stress_count; ++m) target.stress[m][r] += dt * rate[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][r] +=
@@ -448,6 +451,7 @@ class TaylorSph {
                            w.gradient[k].transpose();
       boundary_stress_[b] = stress_of(real_, i);
       boundary_velocity_[b] = velocity_of(i);
+      boundary_density_[b] = real_.density[i];
       boundary_velocity_gradient_[b] = grad_v;
       boundary_stress_gradient_[b] = stress_gradient(source, nb, w, boundary_stress_[b]);
     }
@@ -470,7 +474,7 @@ class TaylorSph {
       }
       const Vec& n = boundary_normal_[b];
       const Mat frame = normal_frame<Dim>(n);
-      const double density = real_.density[i];
+      const double density = boundary_density_[b];
       const double c_p = std::sqrt(modulus / density);
       const double c_s = std::sqrt(shear / density);
       const double z_p = density * c_p;
@@ -483,12 +487,18 @@ class TaylorSph {
       const Vec velocity_dn = frame.transpose() * (boundary_velocity_gradient_[b] * n);
       // Tangential derivatives at n+1/2 (virtual set): column k of velocity_dt is
       // d v' / d t_k, stress_dt[k] is d sigma' / d t_k.
+      // Where the virtual stencil does not span every direction (a corner with a single
+      // virtual neighbour) the real set's gradients at time n are used instead.
+      const bool half = boundary_half_gradient_complete_[b] != 0;
+      const Mat& grad_v = half ? boundary_half_velocity_gradient_[b] : boundary_velocity_gradient_[b];
+      const StressGradient& grad_stress =
+          half ? boundary_half_stress_gradient_[b] : boundary_stress_gradient_[b];
       Mat velocity_dt = Mat::Zero();
       std::array<Mat, Dim> stress_dt{};
       for (int k = 1; k < Dim; ++k) {
         const Vec t = frame.col(k);
-        velocity_dt.col(k) = frame.transpose() * (boundary_half_velocity_gradient_[b] * t);
-        stress_dt[k] = frame.transpose() * directional(boundary_half_stress_gradient_[b], t) * frame;
+        velocity_dt.col(k) = frame.transpose() * (grad_v * t);
+        stress_dt[k] = frame.transpose() * directional(grad_stress, t) * frame;
       }
       // Effective body force, with the damping, at time n.
       const Vec force = frame.transpose() * (settings_.body_force - settings_.damping * boundary_velocity_[b]);
@@ -538,13 +548,22 @@ class TaylorSph {
       for (int k = 1; k < Dim; ++k)
         gradient(k, 0) = (stress1(0, k) - stress0(0, k)) / (dt * shear) - velocity_dt(0, k);
       const Mat spin = 0.5 * (gradient - gradient.transpose());
-      const Mat rotation_rate = spin * stress0 - stress0 * spin;
+      const Mat rotation_rate = settings_.kinematics == Kinematics::updated_lagrangian
+                                    ? Mat(spin * stress0 - stress0 * spin)
+                                    : Mat(Mat::Zero());
       const double volumetric = gradient.trace();
       for (int k = 1; k < Dim; ++k)
         for (int l = 1; l < Dim; ++l)
           stress1(k, l) = stress0(k, l) +
                           dt * ((k == l ? lame * volumetric : 0.0) +
                                 shear * (gradient(k, l) + gradient(l, k)) + rotation_rate(k, l));
+
+      // Density from the same velocity gradient (the full step's one-sided estimate is
+      // replaced, like the rest of the boundary state).
+      if (settings_.kinematics == Kinematics::updated_lagrangian) {
+        real_.density[i] = boundary_density_[b] * std::exp(-dt * volumetric);
+        real_.volume[i] = real_.mass[i] / real_.density[i];
+      }
 
       // Back to the global frame.
       const Mat stress_global = frame * stress1 * frame.transpose();
@@ -629,16 +648,19 @@ class TaylorSph {
         const std::uint32_t i = boundary_particles_[b];
         const Vec x = real_.position_of(i);
         Vec sum = Vec::Zero();
-        double magnitude = 0.0;  // sum of |V_J grad W|: the scale of the sum
-        for (std::uint32_t j : real_from_real_.neighbors(i)) {
-          const Vec g = real_.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - real_.position_of(j)),
-                                                               settings_.smoothing_length);
-          sum += g;
-          magnitude += g.norm();
-        }
+        for (std::uint32_t j : real_from_real_.neighbors(i))
+          sum += real_.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - real_.position_of(j)),
+                                                        settings_.smoothing_length);
         const double norm = sum.norm();
-        // On a surface the kernel gradients do not cancel; inside they nearly do.
-        const bool on_surface = norm > kSurfaceThreshold * magnitude;
+        const Vec kernel_normal = norm > 0.0 ? Vec(-sum / norm) : Vec(Vec::Unit(0));
+        // On a surface no neighbour lies within 60 degrees of the outward normal; inside,
+        // some neighbour always does (a lattice has one every 90 degrees or closer).
+        double most_outward = -1.0;
+        for (std::uint32_t j : real_from_real_.neighbors(i)) {
+          const Vec offset = real_.position_of(j) - x;
+          most_outward = std::max(most_outward, offset.dot(kernel_normal) / offset.norm());
+        }
+        const bool on_surface = norm > 0.0 && most_outward < kSurfaceCosine;
         if (first_build) {
           boundary_on_surface_[b] = on_surface;
           const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[i])];
@@ -649,7 +671,6 @@ class TaylorSph {
                 " is inside the body (no free surface there); a traction applies only to "
                 "surface particles: shrink the region to the surface");
         }
-        const Vec kernel_normal = norm > 0.0 ? Vec(-sum / norm) : Vec(Vec::Unit(0));
         boundary_normal_[b] = face_normal(i, kernel_normal);
       }
     });
@@ -705,10 +726,12 @@ class TaylorSph {
   std::vector<char> boundary_on_surface_;  ///< decided at the first build
   std::vector<StressVector<Dim>> boundary_stress_;  ///< sigma^n
   std::vector<Vec> boundary_velocity_;              ///< v^n
+  std::vector<double> boundary_density_;            ///< rho^n
   std::vector<StressGradient> boundary_stress_gradient_;  ///< grad sigma^n (real set)
   std::vector<Mat> boundary_velocity_gradient_;           ///< grad v^n (real set)
   std::vector<StressGradient> boundary_half_stress_gradient_;  ///< grad sigma^{n+1/2} (virtual)
   std::vector<Mat> boundary_half_velocity_gradient_;           ///< grad v^{n+1/2} (virtual)
+  std::vector<char> boundary_half_gradient_complete_;          ///< virtual stencil full rank
   std::array<std::vector<double>, Dim> previous_velocity_;  ///< v^n of the real particles
   std::array<std::vector<double>, Dim> filtered_velocity_;  ///< hourglass filter scratch
 };

@@ -1,0 +1,205 @@
+// tsph-cantilever: the cantilever beam of seed section 4.2 (2D, plane stress or plane
+// strain) and its 3D counterpart, run to rest by a load ramp and damping.
+//
+//   tsph-cantilever [--dim 2|3] [--plane stress|strain] [--nx 101] [options]
+//
+// Writes axis.csv (x, u_y, exact u_y), particles.csv (every real particle: initial
+// position, displacement, stress) and summary.json (tip deflection against the exact
+// value, L2 error along the axis, steps, wall time, particle-steps per second).
+// Exit status: 0 success (converged), 2 bad input, 3 not converged or diverged,
+// 1 other failure.
+#include "engine/cantilever_case.hpp"
+#include "engine/parallel.hpp"
+
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+#include <fmt/os.h>
+
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <string>
+
+namespace {
+
+using namespace tsph;
+
+constexpr int kExitBadInput = 2;
+constexpr int kExitNotConverged = 3;
+
+struct Options {
+  int dim = 2;
+  std::string plane = "stress";
+  std::string kernel = "cubic_spline";
+  std::string kinematics = "small_strain";
+  int nodes_x = 101;
+  double length = 1.0, depth = 0.1, width = 0.1;
+  double young = 8e7, poisson = 0.3, density = 2000.0;
+  double load = 0.0;  // 0: the case's default (1000 N in 2D, 100 N in 3D)
+  double alpha = 0.6, cfl = 0.9, damping = -1.0, ramp = -1.0, hourglass = 0.0;
+  double end_time = 3.0, tolerance = 1e-5;
+  std::string out = "out/cantilever";
+  int threads = 0;
+  bool quiet = false;
+};
+
+template <int Dim>
+int run(const Options& o) {
+  CantileverSettings<Dim> s;
+  s.length = o.length;
+  s.depth = o.depth;
+  s.width = o.width;
+  s.nodes_x = o.nodes_x;
+  const double dx = o.length / (o.nodes_x - 1);
+  s.nodes_y = static_cast<int>(std::lround(o.depth / dx)) + 1;
+  s.nodes_z = static_cast<int>(std::lround(o.width / dx)) + 1;
+  s.young_modulus = o.young;
+  s.poisson_ratio = o.poisson;
+  s.density = o.density;
+  if (o.load != 0.0) s.load = o.load;
+  s.plane_mode = o.plane == "strain" ? PlaneMode::plane_strain : PlaneMode::plane_stress;
+  s.alpha = o.alpha;
+  s.cfl = o.cfl;
+  s.kernel = *parse_kernel_kind(o.kernel);
+  s.kinematics = o.kinematics == "small_strain" ? Kinematics::small_strain
+                                                : Kinematics::updated_lagrangian;
+  s.damping = o.damping;
+  s.ramp_time = o.ramp;
+  s.hourglass = o.hourglass;
+  s.end_time = o.end_time;
+  s.tolerance = o.tolerance;
+  if (const auto errors = validate(s); !errors.empty()) {
+    for (const auto& e : errors) fmt::print(stderr, "tsph-cantilever: error: {}\n", e.message());
+    return kExitBadInput;
+  }
+  const CantileverExact<Dim> exact(s);
+  if (!o.quiet) {
+    fmt::print("{}D cantilever{}: {} x {}{} real particles, dx = {} m, alpha = {}, CFL = {}, "
+               "hourglass = {}, {}\n",
+               Dim, Dim == 2 ? (o.plane == "strain" ? " (plane strain)" : " (plane stress)") : "",
+               s.nodes_x, s.nodes_y, Dim == 3 ? fmt::format(" x {}", s.nodes_z) : "", dx, s.alpha,
+               s.cfl, s.hourglass, o.kinematics);
+    fmt::print("exact tip deflection {:.6f} m; first mode period {:.3f} s\n",
+               exact.tip_deflection(), 2.0 * M_PI / s.first_mode_frequency());
+    auto last = std::make_shared<std::chrono::steady_clock::time_point>(std::chrono::steady_clock::now());
+    const double end = s.end_time;
+    s.progress = [last, end](double t, double tip, double kinetic) {
+      const auto now = std::chrono::steady_clock::now();
+      if (std::chrono::duration<double>(now - *last).count() < 2.0) return;
+      *last = now;
+      fmt::print("  t = {:.3f} s ({:4.1f} % of the time limit)   tip u_y = {:.6f} m   kinetic {:.3e} J\n",
+                 t, 100.0 * t / end, tip, kinetic);
+      std::fflush(stdout);
+    };
+  }
+  const CantileverResult r = run_cantilever(s);
+
+  const std::filesystem::path out(o.out);
+  {
+    auto axis = fmt::output_file((out / "axis.csv").string());
+    axis.print("x,uy,uy_exact\n");
+    for (std::size_t k = 0; k < r.axis_x.size(); ++k)
+      axis.print("{:.17g},{:.17g},{:.17g}\n", r.axis_x[k], r.axis_uy[k], r.axis_exact[k]);
+    auto particles = fmt::output_file((out / "particles.csv").string());
+    particles.print("x0,y0,z0,ux,uy,uz,s0,s1,s2,s3,s4,s5\n");
+    for (std::size_t i = 0; i < r.initial_position.size(); ++i) {
+      const auto& x = r.initial_position[i];
+      const auto& u = r.displacement[i];
+      const auto& sg = r.stress[i];
+      particles.print("{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n",
+                      x[0], x[1], x[2], u[0], u[1], u[2], sg[0], sg[1], sg[2], sg[3], sg[4], sg[5]);
+    }
+    auto json = fmt::output_file((out / "summary.json").string());
+    json.print(
+        "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
+        " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
+        " \"hourglass\": {}, \"real_particles\": {}, \"virtual_particles\": {},\n"
+        " \"converged\": {}, \"time\": {:.6f}, \"steps\": {}, \"dt\": {:.6e},\n"
+        " \"tip_deflection\": {:.9e}, \"tip_exact\": {:.9e}, \"tip_error_percent\": {:.6f},\n"
+        " \"axis_l2_error_percent\": {:.6f}, \"wall_seconds\": {:.3f},\n"
+        " \"particle_steps_per_second\": {:.6e}, \"threads\": {},\n"
+        " \"gradient_fallbacks\": {}, \"interpolation_fallbacks\": {}}}\n",
+        Dim, Dim == 2 ? o.plane : "none", s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1, dx,
+        s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, r.real_particles, r.virtual_particles,
+        r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
+        r.tip_error_percent, r.axis_l2_error_percent, r.wall_seconds, r.particle_steps_per_second,
+        thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks);
+  }
+  if (!o.quiet) {
+    fmt::print("{} after {} steps (t = {:.3f} s), {:.1f} s wall, {:.3e} particle-steps/s\n",
+               r.converged ? "converged" : "NOT converged", r.steps, r.time, r.wall_seconds,
+               r.particle_steps_per_second);
+    fmt::print("tip deflection {:.6f} m, exact {:.6f} m: error {:.3f} %; L2 error of u_y along "
+               "the axis {:.3f} %\noutput in {}\n",
+               r.tip_deflection, r.tip_exact, r.tip_error_percent, r.axis_l2_error_percent, o.out);
+  }
+  return r.converged ? 0 : kExitNotConverged;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"tsph-cantilever: the cantilever beam of the Taylor-SPH seed paper (section 4.2)"};
+  app.add_option("--dim", o.dim, "2 or 3")->capture_default_str()->check(CLI::IsMember({2, 3}));
+  app.add_option("--plane", o.plane, "2D model: stress | strain")
+      ->capture_default_str()->check(CLI::IsMember({"stress", "strain"}));
+  app.add_option("--nx", o.nodes_x, "real particles along the length (dx = L / (nx - 1))")
+      ->capture_default_str();
+  app.add_option("--length", o.length, "L (m)")->capture_default_str();
+  app.add_option("--depth", o.depth, "D (m), along the load")->capture_default_str();
+  app.add_option("--width", o.width, "B (m), 3D only")->capture_default_str();
+  app.add_option("--E", o.young, "Young's modulus (Pa)")->capture_default_str();
+  app.add_option("--nu", o.poisson, "Poisson's ratio, in (-1, 0.5)")->capture_default_str();
+  app.add_option("--rho", o.density, "density (kg/m^3)")->capture_default_str();
+  app.add_option("--load", o.load, "end load P (N); 0: 1000 in 2D, 100 in 3D")->capture_default_str();
+  app.add_option("--alpha", o.alpha, "h / dx")->capture_default_str();
+  app.add_option("--cfl", o.cfl, "dt = CFL dx / c_p, in (0, 1]")->capture_default_str();
+  app.add_option("--kernel", o.kernel, "cubic_spline | wendland_c2 | quintic_spline")
+      ->capture_default_str()->check(CLI::IsMember({"cubic_spline", "wendland_c2", "quintic_spline"}));
+  app.add_option("--kinematics", o.kinematics, "small_strain | updated_lagrangian (unstable in 2D, see README)")
+      ->capture_default_str()->check(CLI::IsMember({"updated_lagrangian", "small_strain"}));
+  app.add_option("--damping", o.damping, "velocity damping c (1/s); < 0: 2 omega_1")
+      ->capture_default_str();
+  app.add_option("--ramp", o.ramp, "load ramp time (s); < 0: one first-mode period")
+      ->capture_default_str();
+  app.add_option("--hourglass", o.hourglass, "hourglass filter coefficient in [0, 1)")
+      ->capture_default_str();
+  app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
+  app.add_option("--tolerance", o.tolerance, "rest criterion (relative tip velocity)")
+      ->capture_default_str();
+  app.add_option("--out", o.out, "output directory")->capture_default_str();
+  app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");
+  app.add_flag("--quiet", o.quiet, "print nothing but errors");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : kExitBadInput;
+  }
+  if (o.nodes_x < 3) {
+    fmt::print(stderr, "tsph-cantilever: error: nx = {} is invalid: needs at least 3\n", o.nodes_x);
+    return kExitBadInput;
+  }
+  set_thread_count(o.threads);
+  std::error_code ec;
+  std::filesystem::create_directories(o.out, ec);
+  if (ec || !std::filesystem::is_directory(o.out)) {
+    fmt::print(stderr, "tsph-cantilever: error: out = '{}' cannot be created ({}); choose a writable directory\n",
+               o.out, ec ? ec.message() : "not a directory");
+    return kExitBadInput;
+  }
+  try {
+    return o.dim == 2 ? run<2>(o) : run<3>(o);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "tsph-cantilever: error: {}\n", e.what());
+    return kExitBadInput;
+  } catch (const std::runtime_error& e) {
+    fmt::print(stderr, "tsph-cantilever: stopped: {}\n", e.what());
+    return kExitNotConverged;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "tsph-cantilever: failed: {}\n", e.what());
+    return 1;
+  }
+}
