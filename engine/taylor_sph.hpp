@@ -78,9 +78,12 @@ struct SolverSettings {
   /// Velocity damping c (1/s): dv/dt = ... - c v (dynamic relaxation to a static state).
   double damping = 0.0;
   /// Hourglass control epsilon in [0, 1): each step the velocity of every real particle
-  /// not held by a velocity condition is relaxed towards the linear-corrected average
-  /// of its real neighbours, v <- (1 - eps) v + eps vbar. Exact for linear fields;
-  /// damps the real-particle checkerboard that the virtual set cannot see (Dim >= 2).
+  /// on a traction (free or loaded) surface is relaxed towards the linear-corrected
+  /// average of its real neighbours, v <- (1 - eps) v + eps vbar. Exact for linear
+  /// fields. Without it, a surface particle can hold a steady velocity pattern that the
+  /// virtual set cannot see (the real-particle checkerboard of DESIGN.md section 5,
+  /// fed by the characteristic relations): the 2D plane-stress cantilever then creeps
+  /// without end. 0.02 to 0.05 cures it; 0.1 and above spoils it (README).
   double hourglass_coefficient = 0.0;
 };
 
@@ -192,10 +195,8 @@ class TaylorSph {
     boundary_velocity_gradient_.resize(nb);
     boundary_half_stress_gradient_.resize(nb);
     boundary_half_velocity_gradient_.resize(nb);
-    boundary_half_gradient_complete_.assign(nb, 0);
     for (auto& v : previous_velocity_) v.resize(real_.size());
-    if (settings_.hourglass_coefficient > 0.0)
-      for (auto& v : filtered_velocity_) v.resize(real_.size());
+    filtered_velocity_.resize(nb);
     rebuild_neighbors();
   }
 
@@ -416,7 +417,6 @@ class TaylorSph {
             boundary_half_velocity_gradient_[static_cast<std::size_t>(b)] = s.velocity_gradient;
             boundary_half_stress_gradient_[static_cast<std::size_t>(b)] =
                 stress_gradient(source, nb, w, s.stress);
-            boundary_half_gradient_complete_[static_cast<std::size_t>(b)] = !status.gradient_fallback;
           }
           const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress, moving);
           for (int m = 0; m < stress_count; ++m) target.stress[m][r] += dt * rate[m];
@@ -487,18 +487,16 @@ class TaylorSph {
       const Vec velocity_dn = frame.transpose() * (boundary_velocity_gradient_[b] * n);
       // Tangential derivatives at n+1/2 (virtual set): column k of velocity_dt is
       // d v' / d t_k, stress_dt[k] is d sigma' / d t_k.
-      // Where the virtual stencil does not span every direction (a corner with a single
-      // virtual neighbour) the real set's gradients at time n are used instead.
-      const bool half = boundary_half_gradient_complete_[b] != 0;
-      const Mat& grad_v = half ? boundary_half_velocity_gradient_[b] : boundary_velocity_gradient_[b];
-      const StressGradient& grad_stress =
-          half ? boundary_half_stress_gradient_[b] : boundary_stress_gradient_[b];
+      // Tangential derivatives at n+1/2 from the virtual set (second order in time; the
+      // real set's gradients at time n would make this forward Euler, which is
+      // unstable). Where the virtual stencil spans fewer than Dim directions (a corner
+      // with one virtual neighbour at alpha 0.6) the missing direction is read as zero.
       Mat velocity_dt = Mat::Zero();
       std::array<Mat, Dim> stress_dt{};
       for (int k = 1; k < Dim; ++k) {
         const Vec t = frame.col(k);
-        velocity_dt.col(k) = frame.transpose() * (grad_v * t);
-        stress_dt[k] = frame.transpose() * directional(grad_stress, t) * frame;
+        velocity_dt.col(k) = frame.transpose() * (boundary_half_velocity_gradient_[b] * t);
+        stress_dt[k] = frame.transpose() * directional(boundary_half_stress_gradient_[b], t) * frame;
       }
       // Effective body force, with the damping, at time n.
       const Vec force = frame.transpose() * (settings_.body_force - settings_.damping * boundary_velocity_[b]);
@@ -580,34 +578,34 @@ class TaylorSph {
     }
   }
 
-  /// Step 4: hourglass control (see SolverSettings::hourglass_coefficient).
+  /// Step 4: hourglass control at free and loaded surfaces (see
+  /// SolverSettings::hourglass_coefficient).
   template <class Kernel>
   void filter_hourglass(const Kernel& kernel) {
     const ParticleView<Dim> set = real_.view();
     const PointsView<Dim> points = points_of<Dim>(real_);
     const double epsilon = settings_.hourglass_coefficient;
+    const std::size_t count = boundary_particles_.size();
     add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
-        set.count, [&](std::size_t i, StencilWeights<Dim>& w, StencilCounts& counts) {
+        count, [&](std::size_t b, StencilWeights<Dim>& w, StencilCounts& counts) {
+          const std::uint32_t i = boundary_particles_[b];
+          const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[i])];
+          filtered_velocity_[b] = velocity_of(i);
+          if (condition.kind != BoundaryCondition<Dim>::Kind::traction || !boundary_on_surface_[b])
+            return;  // prescribed velocities are not filtered
           const auto nb = real_from_real_.neighbors(i);
           const StencilStatus status =
-              compute_stencil<Dim>(kernel, settings_.smoothing_length, set.position_of(i),
-                                   points, set.volume, nb, InterpolationKind::linear, w);
+              compute_stencil<Dim>(kernel, settings_.smoothing_length, set.position_of(i), points,
+                                   set.volume, nb, InterpolationKind::linear, w);
           counts += status;
-          for (int d = 0; d < Dim; ++d) {
-            double average = 0.0;
-            for (std::size_t k = 0; k < nb.size(); ++k) average += w.value[k] * set.velocity[d][nb[k]];
-            filtered_velocity_[d][i] = status.no_neighbors ? set.velocity[d][i] : average;
-          }
+          if (status.no_neighbors) return;
+          Vec average = Vec::Zero();
+          for (std::size_t k = 0; k < nb.size(); ++k)
+            for (int d = 0; d < Dim; ++d) average[d] += w.value[k] * set.velocity[d][nb[k]];
+          filtered_velocity_[b] = (1.0 - epsilon) * velocity_of(i) + epsilon * average;
         }));
-    parallel_for(real_.size(), [&](std::size_t i) {
-      const std::int32_t b = real_.boundary[i];
-      if (b >= 0 && boundaries_[static_cast<std::size_t>(b)].kind ==
-                        BoundaryCondition<Dim>::Kind::velocity)
-        return;  // prescribed velocities are not filtered
-      for (int d = 0; d < Dim; ++d)
-        real_.velocity[d][i] = (1.0 - epsilon) * real_.velocity[d][i] +
-                               epsilon * filtered_velocity_[d][i];
-    });
+    for (std::size_t b = 0; b < count; ++b)
+      for (int d = 0; d < Dim; ++d) real_.velocity[d][boundary_particles_[b]] = filtered_velocity_[b][d];
   }
 
   /// Step 5: displacements with the mean of v^n and v^{n+1}; in updated-Lagrangian
@@ -639,8 +637,7 @@ class TaylorSph {
     const CellList<Dim> real_cells(real_points, radius);
     virtual_from_real_ = real_cells.query(virtual_points);
     real_from_virtual_ = CellList<Dim>(virtual_points, radius).query(real_points);
-    if (!boundary_particles_.empty() || settings_.hourglass_coefficient > 0.0)
-      real_from_real_ = without_self(real_cells.query(real_points));
+    if (!boundary_particles_.empty()) real_from_real_ = without_self(real_cells.query(real_points));
     visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) {
       const bool first_build = counters_.neighbor_builds == 0;
       if (first_build) boundary_on_surface_.assign(boundary_particles_.size(), 1);
@@ -731,9 +728,8 @@ class TaylorSph {
   std::vector<Mat> boundary_velocity_gradient_;           ///< grad v^n (real set)
   std::vector<StressGradient> boundary_half_stress_gradient_;  ///< grad sigma^{n+1/2} (virtual)
   std::vector<Mat> boundary_half_velocity_gradient_;           ///< grad v^{n+1/2} (virtual)
-  std::vector<char> boundary_half_gradient_complete_;          ///< virtual stencil full rank
   std::array<std::vector<double>, Dim> previous_velocity_;  ///< v^n of the real particles
-  std::array<std::vector<double>, Dim> filtered_velocity_;  ///< hourglass filter scratch
+  std::vector<Vec> filtered_velocity_;  ///< hourglass filter scratch, per boundary slot
 };
 
 }  // namespace tsph

@@ -37,7 +37,7 @@ struct Options {
   double length = 1.0, depth = 0.1, width = 0.1;
   double young = 8e7, poisson = 0.3, density = 2000.0;
   double load = 0.0;  // 0: the case's default (1000 N in 2D, 100 N in 3D)
-  double alpha = 0.6, cfl = 0.9, damping = -1.0, ramp = -1.0, hourglass = 0.0;
+  double alpha = 0.6, cfl = 0.9, damping = -1.0, ramp = -1.0, hourglass = 0.02;
   double end_time = 3.0, tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--ramp", o.ramp, "load ramp time (s); < 0: one first-mode period")
       ->capture_default_str();
-  app.add_option("--hourglass", o.hourglass, "hourglass filter coefficient in [0, 1)")
+  app.add_option("--hourglass", o.hourglass, "surface hourglass filter coefficient in [0, 1)")
       ->capture_default_str();
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance, "rest criterion (relative tip velocity)")
