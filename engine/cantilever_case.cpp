@@ -56,6 +56,11 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
     if (std::abs(dy - dx) > 1e-9 * dx)
       errors.push_back({"nodes_y", std::to_string(s.nodes_y),
                         "must give the spacing of x, depth / (nodes_y - 1) = " + number(dx)});
+    if (s.nodes_y % 2 == 0 || (Dim == 3 && s.nodes_z % 2 == 0))
+      errors.push_back({Dim == 3 && s.nodes_y % 2 != 0 ? "nodes_z" : "nodes_y",
+                        std::to_string(s.nodes_y % 2 == 0 ? s.nodes_y : s.nodes_z),
+                        "must be odd so that a row of particles lies on the beam axis (choose "
+                        "nx so that depth / dx is even)"});
     if (Dim == 3 && std::abs(s.width / (s.nodes_z - 1) - dx) > 1e-9 * dx)
       errors.push_back({"nodes_z", std::to_string(s.nodes_z),
                         "must give the spacing of x, width / (nodes_z - 1) = " + number(dx)});

@@ -1,0 +1,56 @@
+// The cantilever of seed section 4.2 against Timoshenko & Goodier (seed eq. 5): the
+// static deflection reached by dynamic relaxation, plane stress and plane strain.
+#include "engine/cantilever_case.hpp"
+
+#include <gtest/gtest.h>
+
+namespace tsph {
+namespace {
+
+// The exact solution reproduces the reference values (reference README section 2).
+TEST(CantileverExact, TipDeflectionMatchesTheReference) {
+  CantileverSettings<2> s;
+  EXPECT_NEAR(CantileverExact<2>(s).tip_deflection(), 0.050344, 5e-7);
+  s.plane_mode = PlaneMode::plane_strain;
+  EXPECT_NEAR(CantileverExact<2>(s).tip_deflection(), 0.045850, 5e-7);
+  // The parabolic tip shear carries the load P: integrate it over the depth.
+  const CantileverExact<2> exact(s);
+  double force = 0.0;
+  const int n = 2000;
+  for (int k = 0; k < n; ++k) {
+    const double y = -0.05 + (k + 0.5) * 0.1 / n;
+    force += exact.tip_shear(y) * 0.1 / n;
+  }
+  EXPECT_NEAR(force, s.load, 1e-3 * s.load);
+}
+
+// 101 x 11 real particles (the seed's discretisation): tip deflection within 2 % of
+// the exact value and the L2 error of u_y along the axis below 3 % (issue 3).
+void expect_seed_accuracy(PlaneMode mode) {
+  CantileverSettings<2> s;  // defaults: 101 x 11, alpha 0.6, CFL 0.9, small strain
+  s.plane_mode = mode;
+  const CantileverResult r = run_cantilever(s);
+  EXPECT_TRUE(r.converged) << "t = " << r.time;
+  EXPECT_LT(r.tip_error_percent, 2.0) << "tip " << r.tip_deflection << " exact " << r.tip_exact;
+  EXPECT_LT(r.axis_l2_error_percent, 3.0);
+  EXPECT_EQ(r.real_particles, 1111u);
+}
+TEST(Cantilever, PlaneStressMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_stress); }
+TEST(Cantilever, PlaneStrainMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_strain); }
+
+TEST(Cantilever, ValidationNamesTheParameter) {
+  CantileverSettings<2> s;
+  s.poisson_ratio = 0.5;
+  auto errors = validate(s);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_EQ(errors.front().parameter, "poisson_ratio");
+  s = {};
+  s.nodes_y = 12;
+  errors = validate(s);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_EQ(errors.front().parameter, "nodes_y");
+  EXPECT_THROW(run_cantilever(s), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace tsph
