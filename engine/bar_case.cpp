@@ -5,20 +5,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 namespace tsph {
-namespace {
-
-std::string number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
-
-}  // namespace
-
 double BarCaseSettings::wave_speed() const { return std::sqrt(young_modulus / density); }
 
 double BarCaseSettings::final_time() const {
@@ -29,10 +18,7 @@ double BarCaseSettings::final_time() const {
 
 std::vector<InputError> validate(const BarCaseSettings& s) {
   std::vector<InputError> errors;
-  auto positive = [&](const char* name, double value) {
-    if (!(value > 0.0) || !std::isfinite(value))
-      errors.push_back({name, number(value), "must be a positive finite number"});
-  };
+  auto positive = [&](const char* name, double value) { require_positive(errors, name, value); };
   positive("length", s.length);
   positive("density", s.density);
   positive("young_modulus", s.young_modulus);
@@ -42,24 +28,24 @@ std::vector<InputError> validate(const BarCaseSettings& s) {
   else positive("dx", s.spacing());
   // Below 0.5 the support 2h < dx holds no neighbour; the seed's range is 0.6-1.2.
   if (!(s.alpha > 0.5) || !(s.alpha <= 4.0))
-    errors.push_back({"alpha", number(s.alpha),
+    errors.push_back({"alpha", format_number(s.alpha),
                       "must lie in (0.5, 4] (h = alpha dx; the support 2h must reach the "
                       "nearest neighbour; the seed recommends 0.6 to 1.2)"});
   if (!(s.cfl > 0.0) || !(s.cfl <= 1.0))
-    errors.push_back({"cfl", number(s.cfl),
+    errors.push_back({"cfl", format_number(s.cfl),
                       "must lie in (0, 1]: the two-step scheme is unstable above CFL 1"});
-  if (!std::isfinite(s.amplitude)) errors.push_back({"amplitude", number(s.amplitude), "must be finite"});
+  if (!std::isfinite(s.amplitude)) errors.push_back({"amplitude", format_number(s.amplitude), "must be finite"});
   if (!std::isfinite(s.body_force))
-    errors.push_back({"body_force", number(s.body_force), "must be finite"});
+    errors.push_back({"body_force", format_number(s.body_force), "must be finite"});
   if (!(s.end_time >= 0.0) || !std::isfinite(s.end_time))
-    errors.push_back({"end_time", number(s.end_time), "must be >= 0 (0: the last output time)"});
+    errors.push_back({"end_time", format_number(s.end_time), "must be >= 0 (0: the last output time)"});
   if (s.output_times.empty() && !(s.end_time > 0.0))
     errors.push_back({"output_times", "(none)", "give at least one output time or an end time"});
   const double end = s.end_time > 0.0 ? s.end_time : s.final_time();
   for (double t : s.output_times)
     if (!(t > 0.0) || !(t <= end))
-      errors.push_back({"output_times", number(t),
-                        "each must lie in (0, end_time = " + number(end) + "]"});
+      errors.push_back({"output_times", format_number(t),
+                        "each must lie in (0, end_time = " + format_number(end) + "]"});
   if (!std::is_sorted(s.output_times.begin(), s.output_times.end()))
     errors.push_back({"output_times", "(unsorted)", "must be given in increasing order"});
   return errors;
@@ -110,14 +96,7 @@ double relative_l2_percent(const std::vector<double>& numerical, const std::vect
 }
 
 BarResult run_bar(const BarCaseSettings& s) {
-  if (const auto errors = validate(s); !errors.empty()) {
-    std::string message;
-    for (const auto& e : errors) {
-      if (!message.empty()) message += "\n";
-      message += e.message();
-    }
-    throw std::invalid_argument(message);
-  }
+  throw_if_invalid(validate(s));
   const double dx = s.spacing();
   LatticeBox<1> box;
   box.lower[0] = 0.0;

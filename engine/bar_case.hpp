@@ -2,6 +2,7 @@
 // from a velocity pulse at x = L travelling into a bar held at x = 0.
 #pragma once
 
+#include "engine/input_error.hpp"
 #include "engine/taylor_sph.hpp"
 #include "engine/time_function.hpp"
 
@@ -36,16 +37,6 @@ struct BarCaseSettings {
   double wave_speed() const;
   double time_step() const { return cfl * spacing() / wave_speed(); }
   double final_time() const;
-};
-
-/// A validation failure: the parameter, its value and what is allowed.
-struct InputError {
-  std::string parameter;
-  std::string value;
-  std::string allowed;
-  std::string message() const {
-    return parameter + " = " + value + " is invalid: " + allowed;
-  }
 };
 
 /// Every problem with the settings (empty when they are valid).

@@ -5,18 +5,9 @@
 
 #include <chrono>
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 namespace tsph {
-namespace {
-std::string number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
-}  // namespace
-
 template <int Dim>
 double CantileverSettings<Dim>::second_moment() const {
   const double thickness = Dim == 2 ? 1.0 : width;
@@ -33,10 +24,7 @@ double CantileverSettings<Dim>::first_mode_frequency() const {
 template <int Dim>
 std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
   std::vector<InputError> errors;
-  auto positive = [&](const char* name, double value) {
-    if (!(value > 0.0) || !std::isfinite(value))
-      errors.push_back({name, number(value), "must be a positive finite number"});
-  };
+  auto positive = [&](const char* name, double value) { require_positive(errors, name, value); };
   positive("length", s.length);
   positive("depth", s.depth);
   if (Dim == 3) positive("width", s.width);
@@ -45,8 +33,8 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
   positive("end_time", s.end_time);
   positive("tolerance", s.tolerance);
   if (!(s.poisson_ratio > -1.0 && s.poisson_ratio < 0.5))
-    errors.push_back({"poisson_ratio", number(s.poisson_ratio), "must lie in (-1, 0.5)"});
-  if (!std::isfinite(s.load)) errors.push_back({"load", number(s.load), "must be finite"});
+    errors.push_back({"poisson_ratio", format_number(s.poisson_ratio), "must lie in (-1, 0.5)"});
+  if (!std::isfinite(s.load)) errors.push_back({"load", format_number(s.load), "must be finite"});
   if (s.nodes_x < 3 || s.nodes_y < 3 || (Dim == 3 && s.nodes_z < 3))
     errors.push_back({"nodes", std::to_string(s.nodes_x) + " x " + std::to_string(s.nodes_y),
                       "needs at least 3 particles along each axis"});
@@ -55,7 +43,7 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
     const double dy = s.depth / (s.nodes_y - 1);
     if (std::abs(dy - dx) > 1e-9 * dx)
       errors.push_back({"nodes_y", std::to_string(s.nodes_y),
-                        "must give the spacing of x, depth / (nodes_y - 1) = " + number(dx)});
+                        "must give the spacing of x, depth / (nodes_y - 1) = " + format_number(dx)});
     if (s.nodes_y % 2 == 0 || (Dim == 3 && s.nodes_z % 2 == 0))
       errors.push_back({Dim == 3 && s.nodes_y % 2 != 0 ? "nodes_z" : "nodes_y",
                         std::to_string(s.nodes_y % 2 == 0 ? s.nodes_y : s.nodes_z),
@@ -63,14 +51,14 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
                         "nx so that depth / dx is even)"});
     if (Dim == 3 && std::abs(s.width / (s.nodes_z - 1) - dx) > 1e-9 * dx)
       errors.push_back({"nodes_z", std::to_string(s.nodes_z),
-                        "must give the spacing of x, width / (nodes_z - 1) = " + number(dx)});
+                        "must give the spacing of x, width / (nodes_z - 1) = " + format_number(dx)});
   }
   if (!(s.alpha > 0.5) || !(s.alpha <= 4.0))
-    errors.push_back({"alpha", number(s.alpha), "must lie in (0.5, 4]"});
+    errors.push_back({"alpha", format_number(s.alpha), "must lie in (0.5, 4]"});
   if (!(s.cfl > 0.0) || !(s.cfl <= 1.0))
-    errors.push_back({"cfl", number(s.cfl), "must lie in (0, 1]"});
+    errors.push_back({"cfl", format_number(s.cfl), "must lie in (0, 1]"});
   if (!(s.hourglass >= 0.0 && s.hourglass < 1.0))
-    errors.push_back({"hourglass", number(s.hourglass), "must lie in [0, 1)"});
+    errors.push_back({"hourglass", format_number(s.hourglass), "must lie in [0, 1)"});
   return errors;
 }
 
@@ -103,14 +91,7 @@ double CantileverExact<Dim>::deflection(double x, double y) const {
 
 template <int Dim>
 CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
-  if (const auto errors = validate(s); !errors.empty()) {
-    std::string message;
-    for (const auto& e : errors) {
-      if (!message.empty()) message += "\n";
-      message += e.message();
-    }
-    throw std::invalid_argument(message);
-  }
+  throw_if_invalid(validate(s));
   using Vec = Vector<Dim>;
   const double dx = s.spacing();
   LatticeBox<Dim> box;
@@ -196,7 +177,7 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
       s.progress(solver.time(), solver.real().displacement[1][tip], solver.kinetic_energy());
     if (!std::isfinite(tip_velocity))
       throw std::runtime_error("cantilever: the solution diverged at t = " +
-                               number(solver.time()));
+                               format_number(solver.time()));
     if (solver.time() > ramp + 0.25 * period && tip_velocity < velocity_tolerance) {
       result.converged = true;
       break;

@@ -36,5 +36,27 @@ expect 0 "" --times 0.00375
 grep -q '"velocity_l2_error_percent"' "$out/run/summary.json" 2>/dev/null ||
   { echo "FAIL: summary.json lacks the errors"; failures=$((failures + 1)); }
 
-echo "$((11 - failures)) passed, $failures failed"
+checks=11
+# tsph-cantilever (second argument): bad input only, exit status 2.
+cantilever="${2:-}"
+if [ -n "$cantilever" ]; then
+  expect_cantilever() {  # expect_cantilever REGEX ARGS...
+    local pattern="$1"
+    shift
+    local text
+    text="$("$cantilever" --out "$out/cantilever" --quiet "$@" 2>&1)"
+    local got=$?
+    checks=$((checks + 1))
+    if [ "$got" -ne 2 ] || ! grep -qE -- "$pattern" <<<"$text"; then
+      echo "FAIL: tsph-cantilever $* -> status $got (want 2), output: $text (want /$pattern/)"
+      failures=$((failures + 1))
+    fi
+  }
+  expect_cantilever "poisson_ratio = 0.5 is invalid: must lie in \(-1, 0.5\)" --nu 0.5
+  expect_cantilever "nodes_y = 6 is invalid: must be odd" --nx 51
+  expect_cantilever "young_modulus = -1 is invalid" --E -1
+  expect_cantilever "plane: .*not in" --plane membrane
+fi
+
+echo "$((checks - failures)) passed, $failures failed"
 [ "$failures" -eq 0 ]

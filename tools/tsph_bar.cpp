@@ -7,6 +7,7 @@
 // Exit status: 0 success, 2 bad input, 1 other failure.
 #include "engine/bar_case.hpp"
 #include "engine/parallel.hpp"
+#include "tools/cli_common.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -23,7 +24,7 @@ namespace {
 
 using namespace tsph;
 
-constexpr int kExitBadInput = 2;
+using cli::kExitBadInput;
 
 struct Options {
   BarCaseSettings bar;
@@ -200,26 +201,15 @@ int main(int argc, char** argv) {
   app.add_option("--out", o.out, "output directory")->capture_default_str();
   app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");
   app.add_flag("--quiet", o.quiet, "print nothing but errors");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : kExitBadInput;
-  }
+  if (const auto stop = cli::parse(app, argc, argv)) return *stop;
 
   if (const auto errors = resolve(o); !errors.empty()) {
     for (const auto& e : errors) fmt::print(stderr, "tsph-bar: error: {}\n", e.message());
     return kExitBadInput;
   }
   set_thread_count(o.threads);
+  if (!cli::prepare_output_directory("tsph-bar", o.out)) return kExitBadInput;
   const std::filesystem::path out(o.out);
-  std::error_code ec;
-  std::filesystem::create_directories(out, ec);
-  if (ec || !std::filesystem::is_directory(out)) {
-    fmt::print(stderr, "tsph-bar: error: out = '{}' cannot be created ({}); choose a writable directory\n",
-               o.out, ec ? ec.message() : "not a directory");
-    return kExitBadInput;
-  }
   try {
     return o.table1 ? run_table1(o, out) : run_single(o, out);
   } catch (const std::invalid_argument& e) {
@@ -227,6 +217,6 @@ int main(int argc, char** argv) {
     return kExitBadInput;
   } catch (const std::exception& e) {
     fmt::print(stderr, "tsph-bar: failed: {}\n", e.what());
-    return 1;
+    return cli::kExitFailure;
   }
 }

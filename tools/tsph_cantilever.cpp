@@ -10,6 +10,7 @@
 // 1 other failure.
 #include "engine/cantilever_case.hpp"
 #include "engine/parallel.hpp"
+#include "tools/cli_common.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -25,8 +26,8 @@ namespace {
 
 using namespace tsph;
 
-constexpr int kExitBadInput = 2;
-constexpr int kExitNotConverged = 3;
+using cli::kExitBadInput;
+using cli::kExitNotConverged;
 
 struct Options {
   int dim = 2;
@@ -172,24 +173,13 @@ int main(int argc, char** argv) {
   app.add_option("--out", o.out, "output directory")->capture_default_str();
   app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");
   app.add_flag("--quiet", o.quiet, "print nothing but errors");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : kExitBadInput;
-  }
+  if (const auto stop = cli::parse(app, argc, argv)) return *stop;
   if (o.nodes_x < 3) {
     fmt::print(stderr, "tsph-cantilever: error: nx = {} is invalid: needs at least 3\n", o.nodes_x);
     return kExitBadInput;
   }
   set_thread_count(o.threads);
-  std::error_code ec;
-  std::filesystem::create_directories(o.out, ec);
-  if (ec || !std::filesystem::is_directory(o.out)) {
-    fmt::print(stderr, "tsph-cantilever: error: out = '{}' cannot be created ({}); choose a writable directory\n",
-               o.out, ec ? ec.message() : "not a directory");
-    return kExitBadInput;
-  }
+  if (!cli::prepare_output_directory("tsph-cantilever", o.out)) return kExitBadInput;
   try {
     return o.dim == 2 ? run<2>(o) : run<3>(o);
   } catch (const std::invalid_argument& e) {
@@ -200,6 +190,6 @@ int main(int argc, char** argv) {
     return kExitNotConverged;
   } catch (const std::exception& e) {
     fmt::print(stderr, "tsph-cantilever: failed: {}\n", e.what());
-    return 1;
+    return cli::kExitFailure;
   }
 }
