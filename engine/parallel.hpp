@@ -8,7 +8,6 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <vector>
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -60,19 +59,6 @@ inline void set_thread_count(int threads) {
 #else
   (void)threads;
 #endif
-}
-
-/// Exclusive prefix sum in place: counts[i] becomes the sum of counts[0..i), and the
-/// returned value is the total. Serial: it is a tiny fraction of any loop it feeds.
-template <class T>
-T exclusive_scan_in_place(std::vector<T>& counts) {
-  T running = 0;
-  for (T& c : counts) {
-    const T here = c;
-    c = running;
-    running += here;
-  }
-  return running;
 }
 
 }  // namespace tsph

@@ -27,12 +27,6 @@ struct NeighborList {
   std::span<const std::uint32_t> neighbors(std::size_t i) const {
     return {indices.data() + offsets[i], indices.data() + offsets[i + 1]};
   }
-  std::size_t max_row_size() const {
-    std::uint64_t largest = 0;
-    for (std::size_t i = 0; i + 1 < offsets.size(); ++i)
-      largest = std::max(largest, offsets[i + 1] - offsets[i]);
-    return static_cast<std::size_t>(largest);
-  }
   bool operator==(const NeighborList&) const = default;
 };
 
