@@ -1,0 +1,201 @@
+#include "engine/particle_file.hpp"
+
+#include "engine/input_error.hpp"
+#include "neighbor/cell_list.hpp"
+
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace tsph {
+namespace {
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, ',')) {
+    const auto first = field.find_first_not_of(" \t\r");
+    const auto last = field.find_last_not_of(" \t\r");
+    fields.push_back(first == std::string::npos ? "" : field.substr(first, last - first + 1));
+  }
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+template <int Dim>
+std::vector<std::string> stress_columns() {
+  if constexpr (Dim == 1) return {"sxx"};
+  else if constexpr (Dim == 2) return {"sxx", "syy", "sxy", "szz"};
+  else return {"sxx", "syy", "szz", "sxy", "syz", "szx"};
+}
+
+}  // namespace
+
+template <int Dim>
+ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, double density) {
+  std::vector<InputError> errors;
+  require_positive(errors, "dx", spacing);
+  require_positive(errors, "density", density);
+  throw_if_invalid(errors);
+  std::ifstream in(path);
+  if (!in)
+    throw std::invalid_argument("particle file '" + path +
+                                "' cannot be opened: check the path and its permissions");
+  const std::array<const char*, 3> axes = {"x", "y", "z"};
+  const std::array<const char*, 3> velocities = {"vx", "vy", "vz"};
+  // Column name -> (field kind, component).
+  std::map<std::string, std::pair<char, int>> known;
+  for (int d = 0; d < Dim; ++d) {
+    known[axes[static_cast<std::size_t>(d)]] = {'x', d};
+    known[velocities[static_cast<std::size_t>(d)]] = {'v', d};
+  }
+  const auto stresses = stress_columns<Dim>();
+  for (std::size_t m = 0; m < stresses.size(); ++m) known[stresses[m]] = {'s', static_cast<int>(m)};
+  known["volume"] = {'V', 0};
+  known["group"] = {'g', 0};
+
+  std::string line;
+  std::size_t line_number = 0;
+  std::vector<std::pair<char, int>> columns;
+  std::vector<std::string> names;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
+    names = split(line);
+    break;
+  }
+  const std::string where = "particle file '" + path + "'";
+  if (names.empty()) throw std::invalid_argument(where + " is empty: it needs a header line");
+  std::array<bool, Dim> has_axis{};
+  for (const auto& name : names) {
+    const auto it = known.find(name);
+    if (it == known.end()) {
+      std::string valid;
+      for (const auto& [k, unused] : known) valid += (valid.empty() ? "" : ", ") + k;
+      throw std::invalid_argument(where + ", line " + std::to_string(line_number) +
+                                  ": unknown column '" + name + "'; valid columns: " + valid);
+    }
+    if (it->second.first == 'x') has_axis[static_cast<std::size_t>(it->second.second)] = true;
+    columns.push_back(it->second);
+  }
+  for (int d = 0; d < Dim; ++d)
+    if (!has_axis[static_cast<std::size_t>(d)])
+      throw std::invalid_argument(where + ": the header lacks the column '" +
+                                  axes[static_cast<std::size_t>(d)] + "'");
+
+  ParticleSet<Dim> set;
+  std::vector<std::size_t> line_of;
+  const double default_volume = std::pow(spacing, Dim);
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
+    const auto fields = split(line);
+    if (fields.size() != columns.size())
+      throw std::invalid_argument(where + ", line " + std::to_string(line_number) + ": " +
+                                  std::to_string(fields.size()) + " fields, the header has " +
+                                  std::to_string(columns.size()));
+    const std::size_t i = set.size();
+    set.resize(i + 1);
+    set.volume[i] = default_volume;
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      double value = 0.0;
+      const std::string& text = fields[c];
+      const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
+      if (result.ec != std::errc() || result.ptr != text.data() + text.size() || !std::isfinite(value))
+        throw std::invalid_argument(where + ", line " + std::to_string(line_number) + ": column '" +
+                                    names[c] + "' = '" + text + "' is not a finite number");
+      const auto [kind, component] = columns[c];
+      switch (kind) {
+        case 'x':
+          set.position[component][i] = value;
+          set.initial_position[component][i] = value;
+          break;
+        case 'v': set.velocity[component][i] = value; break;
+        case 's': set.stress[component][i] = value; break;
+        case 'V':
+          if (!(value > 0.0))
+            throw std::invalid_argument(where + ", line " + std::to_string(line_number) +
+                                        ": volume = " + text + " must be positive");
+          set.volume[i] = value;
+          break;
+        case 'g': set.group[i] = static_cast<std::int32_t>(value); break;
+      }
+    }
+    set.density[i] = density;
+    set.mass[i] = density * set.volume[i];
+    line_of.push_back(line_number);
+  }
+  if (set.size() == 0) throw std::invalid_argument(where + " holds no particle");
+
+  // Duplicated or overlapping particles: any pair closer than dx / 2.
+  const PointsView<Dim> points = points_of<Dim>(set);
+  const NeighborList close = CellList<Dim>(points, 0.5 * spacing).query(points);
+  for (std::size_t i = 0; i < set.size(); ++i)
+    for (std::uint32_t j : close.neighbors(i))
+      if (j != i)
+        throw std::invalid_argument(where + ": the particles of lines " +
+                                    std::to_string(line_of[std::min<std::size_t>(i, j)]) + " and " +
+                                    std::to_string(line_of[std::max<std::size_t>(i, j)]) +
+                                    " are closer than dx / 2 = " + format_number(0.5 * spacing) +
+                                    " (duplicated or overlapping)");
+  return set;
+}
+
+template <int Dim>
+ParticleSet<Dim> make_virtual_particles(const ParticleSet<Dim>& real, double spacing,
+                                        double density) {
+  Vector<Dim> lower = real.position_of(0);
+  for (std::size_t i = 0; i < real.size(); ++i) lower = lower.cwiseMin(real.position_of(i));
+  // Lattice index of every real particle (rounded), then the cells whose corners are all there.
+  std::map<std::array<std::int64_t, Dim>, bool> occupied;
+  for (std::size_t i = 0; i < real.size(); ++i) {
+    std::array<std::int64_t, Dim> index;
+    bool on_lattice = true;
+    for (int d = 0; d < Dim; ++d) {
+      const double s = (real.position[d][i] - lower[d]) / spacing;
+      index[static_cast<std::size_t>(d)] = std::llround(s);
+      on_lattice = on_lattice && std::abs(s - std::round(s)) <= 0.3;
+    }
+    if (on_lattice) occupied[index] = true;
+  }
+  ParticleSet<Dim> set;
+  for (const auto& [index, unused] : occupied) {
+    bool filled = true;
+    for (int corner = 0; corner < (1 << Dim) && filled; ++corner) {
+      auto neighbour = index;
+      for (int d = 0; d < Dim; ++d) neighbour[static_cast<std::size_t>(d)] += (corner >> d) & 1;
+      filled = occupied.count(neighbour) > 0;
+    }
+    if (!filled) continue;
+    const std::size_t q = set.size();
+    set.resize(q + 1);
+    for (int d = 0; d < Dim; ++d) {
+      const double x = lower[d] + (static_cast<double>(index[static_cast<std::size_t>(d)]) + 0.5) * spacing;
+      set.position[d][q] = x;
+      set.initial_position[d][q] = x;
+    }
+    set.volume[q] = std::pow(spacing, Dim);
+    set.density[q] = density;
+    set.mass[q] = density * set.volume[q];
+  }
+  if (set.size() == 0)
+    throw std::invalid_argument("particle file: no lattice cell of dx = " + format_number(spacing) +
+                                " has all its corners filled: check dx against the particles");
+  return set;
+}
+
+template ParticleSet<1> read_particle_csv<1>(const std::string&, double, double);
+template ParticleSet<2> read_particle_csv<2>(const std::string&, double, double);
+template ParticleSet<3> read_particle_csv<3>(const std::string&, double, double);
+template ParticleSet<1> make_virtual_particles<1>(const ParticleSet<1>&, double, double);
+template ParticleSet<2> make_virtual_particles<2>(const ParticleSet<2>&, double, double);
+template ParticleSet<3> make_virtual_particles<3>(const ParticleSet<3>&, double, double);
+
+}  // namespace tsph

@@ -1,0 +1,32 @@
+// Real particles from a CSV file, and virtual particles generated for them, for shapes
+// other than boxes (issue 3). The file has a header naming its columns:
+//   x, y[, z]                      positions (required)
+//   volume                         particle volume (default dx^Dim)
+//   vx, vy[, vz]                   initial velocity (default 0)
+//   sxx, syy, sxy, szz (2D) or sxx, syy, szz, sxy, syz, szx (3D), sxx (1D)
+//                                  initial stress (default 0)
+//   group                          integer group for boundary regions (default 0)
+// The particles must lie on a lattice of spacing dx, up to 0.3 dx of disorder: a
+// virtual particle is placed at the centre of every lattice cell whose 2^Dim corners
+// all hold a real particle. Two particles closer than dx / 2 are refused as
+// duplicated or overlapping.
+#pragma once
+
+#include "engine/particle_set.hpp"
+
+#include <string>
+
+namespace tsph {
+
+/// Reads the file; throws std::invalid_argument naming the file, line, column and
+/// value of the first problem (missing file, unknown column, wrong field count,
+/// unparsable or non-finite value, duplicated or overlapping particles).
+template <int Dim>
+ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, double density);
+
+/// Virtual particles at the centres of the lattice cells filled by `real`.
+template <int Dim>
+ParticleSet<Dim> make_virtual_particles(const ParticleSet<Dim>& real, double spacing,
+                                        double density);
+
+}  // namespace tsph
