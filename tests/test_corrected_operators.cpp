@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/typed_dimensions.hpp"
+
 #include <Eigen/Eigenvalues>
 
 #include <cmath>
@@ -252,14 +254,8 @@ Counts check_stencils(const Kernel& kernel, double h, const ParticleSet<Dim>& qu
 template <class DimConstant>
 class CorrectedOperatorTest : public ::testing::Test {};
 
-using Dimensions = ::testing::Types<std::integral_constant<int, 1>, std::integral_constant<int, 2>,
-                                    std::integral_constant<int, 3>>;
-struct DimName {
-  template <class DimConstant>
-  static std::string GetName(int) {
-    return std::to_string(DimConstant::value) + "d";
-  }
-};
+using tsph::testing::Dimensions;
+using tsph::testing::DimName;
 TYPED_TEST_SUITE(CorrectedOperatorTest, Dimensions, DimName);
 
 // Regular lattices: real -> virtual, virtual -> real and real -> real, for every kernel

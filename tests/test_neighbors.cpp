@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/typed_dimensions.hpp"
+
 #include <omp.h>
 
 #include <algorithm>
@@ -89,14 +91,8 @@ NeighborList expect_cell_list_matches_brute_force(const PointsView<Dim>& query,
 template <class DimConstant>
 class NeighborTest : public ::testing::Test {};
 
-using Dimensions = ::testing::Types<std::integral_constant<int, 1>, std::integral_constant<int, 2>,
-                                    std::integral_constant<int, 3>>;
-struct DimName {
-  template <class DimConstant>
-  static std::string GetName(int) {
-    return std::to_string(DimConstant::value) + "d";
-  }
-};
+using tsph::testing::Dimensions;
+using tsph::testing::DimName;
 TYPED_TEST_SUITE(NeighborTest, Dimensions, DimName);
 
 // Random query and source sets (different sets, the query box larger than the source

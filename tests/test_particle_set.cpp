@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/typed_dimensions.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -24,14 +26,8 @@ namespace {
 template <class DimConstant>
 class ParticleSetTest : public ::testing::Test {};
 
-using Dimensions = ::testing::Types<std::integral_constant<int, 1>, std::integral_constant<int, 2>,
-                                    std::integral_constant<int, 3>>;
-struct DimName {
-  template <class DimConstant>
-  static std::string GetName(int) {
-    return std::to_string(DimConstant::value) + "d";
-  }
-};
+using tsph::testing::Dimensions;
+using tsph::testing::DimName;
 TYPED_TEST_SUITE(ParticleSetTest, Dimensions, DimName);
 
 /// Number of per-particle arrays: position, initial_position, velocity, displacement
