@@ -6,6 +6,7 @@
 #include "engine/lattice.hpp"
 #include "neighbor/brute_force.hpp"
 #include "neighbor/cell_list.hpp"
+#include "neighbor/kd_tree.hpp"
 
 #include <gtest/gtest.h>
 
@@ -72,7 +73,7 @@ void expect_well_formed(const NeighborList& list, std::size_t query_count,
   }
 }
 
-/// The cell list, through both entry points, equals brute force exactly.
+/// The cell list, through both entry points, and the kd-tree equal brute force exactly.
 template <int Dim>
 NeighborList expect_cell_list_matches_brute_force(const PointsView<Dim>& query,
                                                   const PointsView<Dim>& source, double radius) {
@@ -85,6 +86,8 @@ NeighborList expect_cell_list_matches_brute_force(const PointsView<Dim>& query,
   EXPECT_EQ(convenience.offsets, reference.offsets) << "radius " << radius;
   EXPECT_EQ(convenience.indices, reference.indices) << "radius " << radius;
   EXPECT_TRUE(queried == reference) << "radius " << radius;
+  const NeighborList tree = kd_tree_neighbors<Dim>(query, source, radius);
+  EXPECT_TRUE(tree == reference) << "kd-tree, radius " << radius;
   return reference;
 }
 
