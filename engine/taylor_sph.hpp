@@ -187,16 +187,20 @@ class TaylorSph {
       boundary_profile_.push_back(boundaries_[static_cast<std::size_t>(b)].profile(x0));
     }
     const std::size_t nb = boundary_particles_.size();
-    boundary_normal_.resize(nb);
-    boundary_stress_.resize(nb);
-    boundary_velocity_.resize(nb);
-    boundary_density_.resize(nb);
-    boundary_stress_gradient_.resize(nb);
-    boundary_velocity_gradient_.resize(nb);
-    boundary_half_stress_gradient_.resize(nb);
-    boundary_half_velocity_gradient_.resize(nb);
+    // Eigen's fixed-size types are not initialised by default: zero every slot, so that a
+    // boundary particle whose stencil is empty (counted) reads zero gradients.
+    StressGradient zero_gradient;
+    for (auto& g : zero_gradient) g.setZero();
+    boundary_normal_.assign(nb, Vec::Zero());
+    boundary_stress_.assign(nb, StressVector<Dim>{});
+    boundary_velocity_.assign(nb, Vec::Zero());
+    boundary_density_.assign(nb, 0.0);
+    boundary_stress_gradient_.assign(nb, zero_gradient);
+    boundary_velocity_gradient_.assign(nb, Mat::Zero());
+    boundary_half_stress_gradient_.assign(nb, zero_gradient);
+    boundary_half_velocity_gradient_.assign(nb, Mat::Zero());
     for (auto& v : previous_velocity_) v.resize(real_.size());
-    filtered_velocity_.resize(nb);
+    filtered_velocity_.assign(nb, Vec::Zero());
     rebuild_neighbors();
   }
 
