@@ -79,7 +79,7 @@ struct BarResult {
 /// std::invalid_argument with all validation messages if the settings are invalid.
 BarResult run_bar(const BarCaseSettings& settings);
 
-/// The relative L2 error in percent, 100 sqrt(sum (a-b)^2 / sum b^2); 0 if b is 0.
+/// The relative L2 error in percent, 100 sqrt(sum (a-b)^2 / sum b^2); NaN if b is 0.
 double relative_l2_percent(const std::vector<double>& numerical, const std::vector<double>& exact);
 
 }  // namespace tsph

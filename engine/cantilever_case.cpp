@@ -34,7 +34,8 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
   positive("tolerance", s.tolerance);
   if (!(s.poisson_ratio > -1.0 && s.poisson_ratio < 0.5))
     errors.push_back({"poisson_ratio", format_number(s.poisson_ratio), "must lie in (-1, 0.5)"});
-  if (!std::isfinite(s.load)) errors.push_back({"load", format_number(s.load), "must be finite"});
+  if (!std::isfinite(s.load) || s.load == 0.0)
+    errors.push_back({"load", format_number(s.load), "must be finite and non-zero"});
   if (s.nodes_x < 3 || s.nodes_y < 3 || (Dim == 3 && s.nodes_z < 3))
     errors.push_back({"nodes", std::to_string(s.nodes_x) + " x " + std::to_string(s.nodes_y),
                       "needs at least 3 particles along each axis"});

@@ -16,7 +16,8 @@
 namespace tsph {
 namespace {
 
-std::vector<std::string> split(const std::string& line) {
+std::vector<std::string> split(std::string line) {
+  if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF files
   std::vector<std::string> fields;
   std::string field;
   std::istringstream in(line);
@@ -74,6 +75,11 @@ ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, doub
   const std::string where = "particle file '" + path + "'";
   if (names.empty()) throw std::invalid_argument(where + " is empty: it needs a header line");
   std::array<bool, Dim> has_axis{};
+  for (std::size_t c = 0; c < names.size(); ++c)
+    for (std::size_t e = 0; e < c; ++e)
+      if (names[c] == names[e])
+        throw std::invalid_argument(where + ", line " + std::to_string(line_number) +
+                                    ": column '" + names[c] + "' appears twice");
   for (const auto& name : names) {
     const auto it = known.find(name);
     if (it == known.end()) {
@@ -125,7 +131,12 @@ ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, doub
                                         ": volume = " + text + " must be positive");
           set.volume[i] = value;
           break;
-        case 'g': set.group[i] = static_cast<std::int32_t>(value); break;
+        case 'g':
+          if (value != std::trunc(value) || std::abs(value) > 2147483647.0)
+            throw std::invalid_argument(where + ", line " + std::to_string(line_number) +
+                                        ": group = " + text + " must be a 32-bit integer");
+          set.group[i] = static_cast<std::int32_t>(value);
+          break;
       }
     }
     set.density[i] = density;

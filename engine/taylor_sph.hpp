@@ -209,12 +209,9 @@ class TaylorSph {
   /// Sets the clock (to land exactly on an output time after round-off).
   void set_time(double t) { time_ = t; }
   const ParticleSet<Dim>& real() const { return real_; }
-  /// Mutable access for setting initial conditions before the first step.
-  ParticleSet<Dim>& real() { return real_; }
   const ParticleSet<Dim>& virtual_particles() const { return virtual_; }
   const LinearElastic<Dim>& material() const { return material_; }
   const SolverSettings<Dim>& settings() const { return settings_; }
-  SolverSettings<Dim>& settings() { return settings_; }
   const SolverCounters& counters() const { return counters_; }
   const NeighborList& virtual_from_real() const { return virtual_from_real_; }
   const NeighborList& real_from_virtual() const { return real_from_virtual_; }
@@ -234,6 +231,18 @@ class TaylorSph {
       apply_boundary_conditions(dt, time_ + dt);
       if (settings_.hourglass_coefficient > 0.0) filter_hourglass(kernel);
     });
+    // A diverged state is reported as such before it moves any particle.
+    auto check_finite = [&](const ParticleSet<Dim>& set, const char* which) {
+      for (std::size_t i = 0; i < set.size(); ++i)
+        for (int d = 0; d < Dim; ++d)
+          if (!std::isfinite(set.velocity[d][i]))
+            throw std::runtime_error("solver: the solution diverged at step " +
+                                     std::to_string(counters_.steps + 1) + " (t = " +
+                                     std::to_string(time_ + dt) + "): " + which + " particle " +
+                                     std::to_string(set.id[i]) + " has a non-finite velocity");
+    };
+    check_finite(real_, "real");
+    check_finite(virtual_, "virtual");
     move(dt);
     if (settings_.kinematics == Kinematics::updated_lagrangian) rebuild_neighbors();
     time_ += dt;
@@ -414,7 +423,13 @@ class TaylorSph {
               compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
                                    source.volume, nb, settings_.interpolation, w);
           counts += status;
-          if (status.no_neighbors) return;
+          if (status.no_neighbors) {
+            if (const std::int32_t b = boundary_slot_[r]; b >= 0) {  // no stale gradients
+              boundary_half_velocity_gradient_[static_cast<std::size_t>(b)].setZero();
+              for (auto& g : boundary_half_stress_gradient_[static_cast<std::size_t>(b)]) g.setZero();
+            }
+            return;
+          }
           const LocalState s = evaluate(source, nb, w);
           if (const std::int32_t b = boundary_slot_[r]; b >= 0) {
             // Tangential derivatives at n+1/2 for the boundary conditions.

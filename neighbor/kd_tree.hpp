@@ -32,6 +32,12 @@ class KdTree {
       index_ = std::make_unique<Index>(Dim, adaptor_, nanoflann::KDTreeSingleIndexAdaptorParams(16));
   }
 
+  // nanoflann keeps a reference to adaptor_: a copied or moved tree would dangle.
+  KdTree(const KdTree&) = delete;
+  KdTree& operator=(const KdTree&) = delete;
+  KdTree(KdTree&&) = delete;
+  KdTree& operator=(KdTree&&) = delete;
+
   double radius() const { return radius_; }
 
   /// All source points within `radius` of each query point, rows sorted.

@@ -97,6 +97,15 @@ TEST_F(ParticleFile, BadFilesAreRefusedWithTheirLineColumnAndValue) {
   EXPECT_NE(message_of(write("volume.csv", "x,y,volume\n0,0,-1\n")).find("volume = -1 must be positive"),
             std::string::npos);
   EXPECT_NE(message_of(write("none.csv", "x,y\n")).find("holds no particle"), std::string::npos);
+  EXPECT_NE(message_of(write("twice.csv", "x,y,x\n0,0,0\n")).find("column 'x' appears twice"),
+            std::string::npos);
+  EXPECT_NE(message_of(write("group.csv", "x,y,group\n0,0,1.5\n"))
+                .find("group = 1.5 must be a 32-bit integer"),
+            std::string::npos);
+  EXPECT_NE(message_of(write("huge.csv", "x,y,group\n0,0,3e9\n")).find("must be a 32-bit integer"),
+            std::string::npos);
+  // Windows line endings are accepted.
+  EXPECT_EQ(message_of(write("crlf.csv", "x,y\r\n0,0\r\n0.1,0\r\n")), "(no error)");
 }
 
 }  // namespace

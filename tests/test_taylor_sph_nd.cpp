@@ -255,6 +255,37 @@ TEST(Threads, TwoDimensionalRunIsBitwiseIdenticalWithOneAndTwoThreads) {
   for (int m = 0; m < 4; ++m) EXPECT_EQ(one.stress[m], two.stress[m]);
 }
 
+// A time step far beyond the stability limit makes the run diverge; the stepper stops
+// with a runtime_error naming the step, before any particle is moved to a NaN position.
+TEST(Divergence, IsReportedBeforeParticlesMove) {
+  const auto box = unit_box<2>(9, 0.01);
+  ParticleSet<2> real = make_real_lattice(box, kDensity);
+  auto virtual_particles = make_virtual_lattice(box, kDensity);
+  assign_box_faces(real, box, 0);
+  for (std::size_t i = 0; i < real.size(); ++i)
+    real.velocity[0][i] = real.boundary[i] < 0 ? std::sin(300.0 * real.position[1][i]) : 0.0;
+  SolverSettings<2> settings;
+  settings.smoothing_length = 0.006;
+  settings.kinematics = Kinematics::updated_lagrangian;
+  const LinearElastic<2> material(kYoung, 0.3, kDensity);
+  TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
+                      {BoundaryCondition<2>::fixed("faces")});
+  const double dt = 5.0 * 0.01 / material.p_wave_speed(kDensity);
+  bool diverged = false;
+  for (int k = 0; k < 2000 && !diverged; ++k) {
+    try {
+      solver.step(dt);
+    } catch (const std::runtime_error& e) {
+      diverged = true;
+      EXPECT_NE(std::string(e.what()).find("diverged at step"), std::string::npos) << e.what();
+    }
+  }
+  ASSERT_TRUE(diverged);
+  const auto& r = solver.real();
+  for (std::size_t i = 0; i < r.size(); ++i)
+    for (int d = 0; d < 2; ++d) ASSERT_TRUE(std::isfinite(r.position[d][i])) << i;
+}
+
 // Bad input: a traction on particles inside the body, a region that selects nothing.
 TEST(BoundaryInput, TractionOnInteriorParticlesIsRefused) {
   const auto box = unit_box<2>(7, 0.01);
