@@ -1,5 +1,7 @@
 #include "engine/cantilever_case.hpp"
 
+#include "engine/bar_case.hpp"  // relative_l2_percent
+
 #include "engine/lattice.hpp"
 #include "engine/region.hpp"
 

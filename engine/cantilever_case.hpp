@@ -5,7 +5,7 @@
 // Timoshenko & Goodier (seed eqs. 5-6); 3D: against Timoshenko beam theory.
 #pragma once
 
-#include "engine/bar_case.hpp"  // InputError
+#include "engine/input_error.hpp"
 #include "engine/taylor_sph.hpp"
 
 #include <functional>

@@ -11,7 +11,7 @@
 //        U_r^{n+1} = U_r^n + dt [ S_r^{n+1/2} - div F ],
 //      with F_r^{n+1/2} interpolated from the virtual neighbours (DESIGN.md 3.2);
 //   3. boundary conditions at n+1 by characteristics (below);
-//   4. hourglass filter of the real velocities (Dim >= 2, if enabled);
+//   4. hourglass filter of the traction-surface particles' velocities (if enabled);
 //   5. displacements; in updated-Lagrangian mode: move both sets, update density,
 //      rebuild the neighbour lists and normals.
 //
