@@ -11,6 +11,7 @@ packages=(
   libbenchmark-dev          # Google Benchmark: bench/
   libfmt-dev                # formatted output
   libcli11-dev              # command-line parsing
+  libtomlplusplus-dev       # case files (TOML) for the tsph command
   python3-numpy python3-matplotlib  # tools/plot_*.py: figures against the exact solutions
 )
 

@@ -1,0 +1,634 @@
+#include "engine/case/case_file.hpp"
+
+#include "engine/input_error.hpp"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <sstream>
+
+namespace tsph {
+
+CaseError::CaseError(const std::vector<std::string>& messages)
+    : std::invalid_argument([&] {
+        std::string all;
+        for (const auto& m : messages) all += (all.empty() ? "" : "\n") + m;
+        return all;
+      }()),
+      messages_(messages) {}
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
+                        std::tolower(static_cast<unsigned char>(b[j - 1]));
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (same ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+const std::vector<std::string>& known_output_fields() {
+  static const std::vector<std::string> fields = {"velocity", "stress",  "von_mises",
+                                                  "displacement", "density", "id", "exact"};
+  return fields;
+}
+
+bool CaseFile::has_field(const std::string& name) const {
+  return std::find(fields.begin(), fields.end(), name) != fields.end();
+}
+
+namespace {
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& s : items) out += (out.empty() ? "" : ", ") + s;
+  return out;
+}
+
+std::string nearest(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_distance = std::string::npos;
+  for (const auto& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_distance) {
+      best_distance = d;
+      best = c;
+    }
+  }
+  return best;
+}
+
+std::string show(const toml::node& node) {
+  std::ostringstream out;
+  if (const auto* s = node.as_string()) out << "'" << s->get() << "'";
+  else if (const auto* d = node.as_floating_point()) out << format_number(d->get());
+  else if (node.is_table()) out << "a table";
+  else if (node.is_array_of_tables()) out << "an array of tables";
+  else node.visit([&](const auto& n) { out << n; });
+  return out.str();
+}
+
+struct Context {
+  std::string file;
+  std::vector<std::string> errors;
+
+  std::string where(const toml::node* node) const {
+    if (node && node->source().begin.line > 0)
+      return file + ":" + std::to_string(node->source().begin.line) + ":" +
+             std::to_string(node->source().begin.column) + ": ";
+    return file + ": ";
+  }
+  void invalid(const toml::node* node, const std::string& key, const std::string& allowed) {
+    errors.push_back(where(node) + key + " = " + (node ? show(*node) : "?") +
+                     " is invalid: " + allowed);
+  }
+};
+
+/// Words that name a key by another name (checked before the edit distance).
+const std::vector<std::pair<std::string, std::string>> kSynonyms = {
+    {"young", "E"}, {"modulus", "E"}, {"poisson", "nu"}, {"density", "rho"},
+    {"kernal", "kernel"}, {"dx", "spacing"}, {"step", "dt"}};
+
+/// A TOML table being read: remembers the keys asked for, so that the keys left over
+/// are reported as unknown (with the nearest known one suggested).
+class Table {
+ public:
+  Table(Context& context, const toml::table* table, std::string prefix, const toml::node* self)
+      : context_(context), table_(table), prefix_(std::move(prefix)), self_(self) {}
+
+  std::string path(const std::string& key) const { return prefix_.empty() ? key : prefix_ + "." + key; }
+  bool has(const std::string& key) const { return table_ && table_->contains(key); }
+
+  const toml::node* get(const std::string& key, bool required, const std::string& example) {
+    known_.push_back(key);
+    const toml::node* node = table_ ? table_->get(key) : nullptr;
+    if (!node && required)
+      context_.errors.push_back(context_.where(self_) + "missing required key " + path(key) +
+                                (prefix_.empty() ? "" : " in [" + prefix_ + "]") + ": add e.g. " +
+                                key + " = " + example);
+    return node;
+  }
+
+  std::optional<double> real(const std::string& key, bool required, const std::string& example,
+                             const std::function<bool(double)>& ok = {},
+                             const std::string& allowed = "") {
+    const toml::node* node = get(key, required, example);
+    if (!node) return std::nullopt;
+    const auto value = node->value<double>();
+    if (!value || (!node->is_floating_point() && !node->is_integer())) {
+      context_.invalid(node, path(key), "must be a number, e.g. " + key + " = " + example);
+      return std::nullopt;
+    }
+    if (!std::isfinite(*value)) {
+      context_.invalid(node, path(key), "must be finite");
+      return std::nullopt;
+    }
+    if (ok && !ok(*value)) {
+      context_.invalid(node, path(key), allowed);
+      return std::nullopt;
+    }
+    return value;
+  }
+
+  std::optional<std::int64_t> integer(const std::string& key, bool required,
+                                      const std::string& example,
+                                      const std::function<bool(std::int64_t)>& ok = {},
+                                      const std::string& allowed = "") {
+    const toml::node* node = get(key, required, example);
+    if (!node) return std::nullopt;
+    if (!node->is_integer()) {
+      context_.invalid(node, path(key), "must be an integer, e.g. " + key + " = " + example);
+      return std::nullopt;
+    }
+    const std::int64_t value = *node->value<std::int64_t>();
+    if (ok && !ok(value)) {
+      context_.invalid(node, path(key), allowed);
+      return std::nullopt;
+    }
+    return value;
+  }
+
+  std::optional<bool> boolean(const std::string& key) {
+    const toml::node* node = get(key, false, "true");
+    if (!node) return std::nullopt;
+    if (!node->is_boolean()) {
+      context_.invalid(node, path(key), "must be true or false");
+      return std::nullopt;
+    }
+    return node->value<bool>();
+  }
+
+  std::optional<std::string> text(const std::string& key, bool required,
+                                  const std::vector<std::string>& choices = {},
+                                  const std::string& example = "\"...\"") {
+    const toml::node* node =
+        get(key, required, choices.empty() ? example : "\"" + choices.front() + "\"");
+    if (!node) return std::nullopt;
+    if (!node->is_string()) {
+      context_.invalid(node, path(key),
+                       choices.empty() ? "must be a string in quotes"
+                                       : "must be one of (in quotes): " + join(choices));
+      return std::nullopt;
+    }
+    std::string value = *node->value<std::string>();
+    if (!choices.empty() && std::find(choices.begin(), choices.end(), value) == choices.end()) {
+      context_.invalid(node, path(key),
+                       "must be one of: " + join(choices) + " (did you mean '" +
+                           nearest(value, choices) + "'?)");
+      return std::nullopt;
+    }
+    return value;
+  }
+
+  /// An array of numbers; `size` > 0 requires that many (the dimension).
+  std::optional<std::vector<double>> numbers(const std::string& key, bool required,
+                                             std::size_t size, const std::string& what) {
+    std::string example = "[";
+    for (std::size_t k = 0; k < std::max<std::size_t>(size, 1); ++k) example += k ? ", 0.0" : "0.0";
+    example += "]";
+    const toml::node* node = get(key, required, example);
+    if (!node) return std::nullopt;
+    const toml::array* array = node->as_array();
+    std::vector<double> values;
+    bool ok = array != nullptr;
+    if (array)
+      for (const auto& item : *array) {
+        const auto v = item.value<double>();
+        if (!v || !std::isfinite(*v) || (!item.is_integer() && !item.is_floating_point())) ok = false;
+        else values.push_back(*v);
+      }
+    if (!ok) {
+      context_.invalid(node, path(key), "must be an array of finite numbers, e.g. " + key + " = " + example);
+      return std::nullopt;
+    }
+    if (size > 0 && values.size() != size) {
+      context_.invalid(node, path(key),
+                       "must have " + std::to_string(size) + " components (" + what + ")");
+      return std::nullopt;
+    }
+    return values;
+  }
+
+  std::optional<std::vector<std::string>> strings(const std::string& key,
+                                                  const std::vector<std::string>& choices) {
+    const toml::node* node = get(key, false, "[\"" + choices.front() + "\"]");
+    if (!node) return std::nullopt;
+    const toml::array* array = node->as_array();
+    std::vector<std::string> values;
+    if (array)
+      for (const auto& item : *array) {
+        const auto* s = item.as_string();
+        if (!s) {
+          array = nullptr;
+          break;
+        }
+        if (std::find(choices.begin(), choices.end(), s->get()) == choices.end()) {
+          context_.errors.push_back(context_.where(&item) + path(key) + " entry '" + s->get() +
+                                    "' is invalid: must be one of: " + join(choices) +
+                                    " (did you mean '" + nearest(s->get(), choices) + "'?)");
+          return std::nullopt;
+        }
+        values.push_back(s->get());
+      }
+    if (!array) {
+      context_.invalid(node, path(key), "must be an array of strings, e.g. [\"" + choices.front() + "\"]");
+      return std::nullopt;
+    }
+    return values;
+  }
+
+  /// A sub-table (or an inline table); an absent optional one reads as empty.
+  Table table(const std::string& key, bool required) {
+    const toml::node* node = get(key, required, "{ ... } (or a [" + path(key) + "] section)");
+    const toml::table* sub = node ? node->as_table() : nullptr;
+    if (node && !sub) context_.invalid(node, path(key), "must be a table ([" + path(key) + "])");
+    return Table(context_, sub, path(key), node ? node : self_);
+  }
+
+  /// An array of tables ([[key]]).
+  std::vector<Table> tables(const std::string& key) {
+    const toml::node* node = get(key, false, "");
+    std::vector<Table> out;
+    if (!node) return out;
+    const toml::array* array = node->as_array();
+    if (!array || !array->is_array_of_tables()) {
+      context_.invalid(node, path(key), "must be an array of tables: write each as [[" + path(key) + "]]");
+      return out;
+    }
+    for (std::size_t k = 0; k < array->size(); ++k)
+      out.emplace_back(context_, (*array)[k].as_table(), path(key) + "[" + std::to_string(k) + "]",
+                       &(*array)[k]);
+    return out;
+  }
+
+  /// Reports every key of the table that was never asked for.
+  void finish() {
+    if (!table_) return;
+    for (const auto& [key, node] : *table_) {
+      const std::string name(key.str());
+      if (std::find(known_.begin(), known_.end(), name) != known_.end()) continue;
+      std::string suggestion = nearest(name, known_);
+      std::string lower = name;
+      for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+      for (const auto& [word, key_name] : kSynonyms)
+        if (lower.find(word) != std::string::npos &&
+            std::find(known_.begin(), known_.end(), key_name) != known_.end())
+          suggestion = key_name;
+      const std::string where = key.source().begin.line > 0
+                                    ? context_.file + ":" + std::to_string(key.source().begin.line) + ":" +
+                                          std::to_string(key.source().begin.column) + ": "
+                                    : context_.where(&node);
+      context_.errors.push_back(where + "unknown key " + path(name) +
+                                ": did you mean " + path(suggestion) + "? (valid keys" +
+                                (prefix_.empty() ? "" : " in [" + prefix_ + "]") + ": " +
+                                join(known_) + ")");
+    }
+  }
+
+  bool present() const { return table_ != nullptr; }
+  const toml::node* self() const { return self_; }
+  Context& context() { return context_; }
+
+ private:
+  Context& context_;
+  const toml::table* table_;
+  std::string prefix_;
+  const toml::node* self_;
+  std::vector<std::string> known_;
+};
+
+auto positive = [](double v) { return v > 0.0; };
+auto non_negative = [](double v) { return v >= 0.0; };
+const std::string kPositive = "must be positive";
+
+/// Applies one --set override ("a.b.c=value") to the table.
+void apply_override(toml::table& root, const std::string& text, Context& context) {
+  const auto equals = text.find('=');
+  if (equals == std::string::npos || equals == 0) {
+    context.errors.push_back(context.file + ": --set '" + text +
+                             "' is invalid: write --set key=value, e.g. --set material.E=2e8");
+    return;
+  }
+  const std::string key = text.substr(0, equals), raw = text.substr(equals + 1);
+  toml::table parsed;
+  try {
+    parsed = toml::parse("v = " + raw);
+  } catch (const toml::parse_error&) {
+    parsed = toml::table{};
+    parsed.insert("v", raw);  // a bare word: a string
+  }
+  std::vector<std::string> parts;
+  std::stringstream in(key);
+  for (std::string part; std::getline(in, part, '.');) parts.push_back(part);
+  toml::node* current = &root;
+  for (std::size_t k = 0; k + 1 < parts.size(); ++k) {
+    if (auto* table = current->as_table()) {
+      if (!table->contains(parts[k])) table->insert(parts[k], toml::table{});
+      current = table->get(parts[k]);
+    } else if (auto* array = current->as_array()) {
+      std::size_t index = 0;
+      const auto [end, ec] = std::from_chars(parts[k].data(), parts[k].data() + parts[k].size(), index);
+      if (ec != std::errc{} || end != parts[k].data() + parts[k].size() || index >= array->size()) {
+        context.errors.push_back(context.file + ": --set " + key + ": '" + parts[k] +
+                                 "' is not an index of the array (0 to " +
+                                 std::to_string(array->size() == 0 ? 0 : array->size() - 1) + ")");
+        return;
+      }
+      current = array->get(index);
+    } else {
+      context.errors.push_back(context.file + ": --set " + key + ": '" + parts[k] +
+                               "' is not a table");
+      return;
+    }
+  }
+  auto* table = current->as_table();
+  if (!table) {
+    context.errors.push_back(context.file + ": --set " + key + ": the parent of '" + parts.back() +
+                             "' is not a table");
+    return;
+  }
+  if (const auto* existing = table->get(parts.back()); existing && (existing->is_table() || existing->is_array_of_tables())) {
+    context.errors.push_back(context.file + ": --set " + key +
+                             " names a table; --set overrides scalars and arrays only");
+    return;
+  }
+  // Overridden nodes have no source position; messages about them name the key.
+  table->insert_or_assign(parts.back(), *parsed.get("v"));
+}
+
+TimeFunctionSpec read_time_function(Table t) {
+  TimeFunctionSpec f;
+  if (!t.present()) return f;
+  f.type = t.text("type", true, {"constant", "pulse", "ramp", "table"}).value_or("constant");
+  if (f.type == "pulse" || f.type == "ramp") {
+    f.start = t.real("start", false, "0.0", non_negative, "must be >= 0").value_or(0.0);
+    f.end = t.real("end", true, "2.5e-3").value_or(f.start + 1.0);
+    if (!(f.end > f.start))
+      t.context().invalid(t.get("end", false, ""), t.path("end"),
+                          "must exceed start = " + format_number(f.start));
+  } else if (f.type == "table") {
+    f.times = t.numbers("times", true, 0, "").value_or(std::vector<double>{});
+    f.values = t.numbers("values", true, 0, "").value_or(std::vector<double>{});
+    bool increasing = !f.times.empty();
+    for (std::size_t k = 1; k < f.times.size(); ++k) increasing = increasing && f.times[k] > f.times[k - 1];
+    if (!increasing && t.has("times"))
+      t.context().invalid(t.get("times", false, ""), t.path("times"), "must be non-empty and increase strictly");
+    if (f.values.size() != f.times.size() && t.has("values"))
+      t.context().invalid(t.get("values", false, ""), t.path("values"),
+                          "must have as many entries as times (" + std::to_string(f.times.size()) + ")");
+  }
+  t.finish();
+  return f;
+}
+
+RegionSpec read_region(Table t, std::size_t dim) {
+  RegionSpec r;
+  r.type = t.text("type", true, {"box", "half_space", "group", "all"}).value_or("");
+  if (r.type == "box") {
+    r.lower = t.numbers("lower", true, dim, "one per axis").value_or(std::vector<double>{});
+    r.upper = t.numbers("upper", true, dim, "one per axis").value_or(std::vector<double>{});
+  } else if (r.type == "half_space") {
+    r.point = t.numbers("point", true, dim, "a point on the plane").value_or(std::vector<double>{});
+    r.normal = t.numbers("normal", true, dim, "pointing to the selected side").value_or(std::vector<double>{});
+    bool zero = !r.normal.empty();
+    for (double n : r.normal) zero = zero && n == 0.0;
+    if (zero) t.context().invalid(t.get("normal", false, ""), t.path("normal"), "must be non-zero");
+  } else if (r.type == "group") {
+    r.group = t.integer("group", true, "1").value_or(0);
+  }
+  t.finish();
+  return r;
+}
+
+}  // namespace
+
+CaseFile load_case(const std::string& path, const std::vector<std::string>& overrides) {
+  Context context;
+  context.file = path;
+  toml::table root;
+  {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec))
+      throw CaseError({path + ": case file cannot be read (" +
+                       (std::filesystem::exists(path, ec) ? "not a regular file" : "no such file") +
+                       "): check the path"});
+  }
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw CaseError({path + ":" + std::to_string(e.source().begin.line) + ":" +
+                     std::to_string(e.source().begin.column) + ": TOML syntax error: " +
+                     std::string(e.description())});
+  }
+  for (const auto& o : overrides) apply_override(root, o, context);
+  if (!context.errors.empty()) throw CaseError(context.errors);
+
+  CaseFile c;
+  c.path = path;
+  c.directory = std::filesystem::path(path).parent_path().string();
+  Table top(context, &root, "", nullptr);
+  c.title = top.text("title", false).value_or(std::filesystem::path(path).stem().string());
+  c.dimension = static_cast<int>(
+      top.integer("dimension", true, "2", [](std::int64_t d) { return d >= 1 && d <= 3; },
+                  "must be 1, 2 or 3").value_or(0));
+  const auto dim = static_cast<std::size_t>(c.dimension);  // 0 when invalid: sizes unchecked
+  c.threads = static_cast<int>(
+      top.integer("threads", false, "2", [](std::int64_t n) { return n >= 0 && n <= 4096; },
+                  "must lie in [0, 4096] (0: the OpenMP default)").value_or(0));
+
+  {  // [geometry]
+    Table g = top.table("geometry", true);
+    c.spacing = g.real("spacing", true, "0.01", positive, kPositive + " (the lattice spacing dx, m)").value_or(0.0);
+    const bool has_box = g.has("box"), has_file = g.has("particle_file");
+    if (has_box == has_file && g.present())
+      context.errors.push_back(context.where(g.self()) +
+                               "geometry needs exactly one of box = { lower = [...], upper = [...] } "
+                               "or particle_file = \"particles.csv\"" +
+                               (has_box ? " (both are given)" : ""));
+    Table box = g.table("box", false);
+    if (box.present()) {
+      c.box_lower = box.numbers("lower", true, dim, "one per axis").value_or(std::vector<double>{});
+      c.box_upper = box.numbers("upper", true, dim, "one per axis").value_or(std::vector<double>{});
+      if (c.box_lower.size() == dim && c.box_upper.size() == dim && c.spacing > 0.0)
+        for (std::size_t d = 0; d < dim; ++d) {
+          const double cells = (c.box_upper[d] - c.box_lower[d]) / c.spacing;
+          if (!(cells >= 1.0 - 1e-9) || std::abs(cells - std::round(cells)) > 1e-6 * std::max(1.0, cells))
+            context.invalid(box.get("upper", false, ""), box.path("upper"),
+                            "must lie a whole number (>= 1) of spacings dx = " + format_number(c.spacing) +
+                                " above lower along axis " + std::to_string(d) + " (extent / dx = " +
+                                format_number(cells) + ")");
+        }
+      box.finish();
+    }
+    if (const auto file = g.text("particle_file", false)) {
+      const std::filesystem::path p(*file);
+      c.particle_file = p.is_absolute() ? p.string() : (std::filesystem::path(c.directory) / p).string();
+    }
+    g.finish();
+  }
+  {  // [material]
+    Table m = top.table("material", true);
+    c.young_modulus = m.real("E", true, "8e7", positive, kPositive + " (Young's modulus, Pa)").value_or(0.0);
+    c.density = m.real("rho", true, "2000", positive, kPositive + " (density, kg/m^3)").value_or(0.0);
+    c.poisson_ratio = m.real("nu", c.dimension > 1, "0.3", [](double v) { return v > -1.0 && v < 0.5; },
+                             "must lie in (-1, 0.5)").value_or(0.0);
+    const auto plane = m.text("plane", false, {"stress", "strain"});
+    if (plane && c.dimension != 2)
+      context.invalid(m.get("plane", false, ""), m.path("plane"), "applies to dimension = 2 only");
+    c.plane_mode = plane.value_or("stress") == "strain" ? PlaneMode::plane_strain : PlaneMode::plane_stress;
+    if (c.dimension == 3) c.plane_mode = PlaneMode::plane_strain;  // unused in 3D
+    m.finish();
+  }
+  {  // [method]
+    Table m = top.table("method", false);
+    const auto kernel = m.text("kernel", false, {"cubic_spline", "wendland_c2", "quintic_spline"});
+    c.kernel = *parse_kernel_kind(kernel.value_or("cubic_spline"));
+    c.alpha = m.real("alpha", true, "0.6", [](double a) { return a > 0.5 && a <= 4.0; },
+                     "must lie in (0.5, 4] (h / dx; below 0.5 the support 2h is shorter than dx)")
+                  .value_or(0.0);
+    c.interpolation = m.text("interpolation", false, {"linear", "shepard"}).value_or("linear") == "shepard"
+                          ? InterpolationKind::shepard
+                          : InterpolationKind::linear;
+    c.kinematics = m.text("kinematics", false, {"small_strain", "updated_lagrangian"})
+                               .value_or("small_strain") == "updated_lagrangian"
+                       ? Kinematics::updated_lagrangian
+                       : Kinematics::small_strain;
+    c.hourglass = m.real("hourglass", false, "0.02", [](double e) { return e >= 0.0 && e < 1.0; },
+                         "must lie in [0, 1)").value_or(0.0);
+    c.body_force = m.numbers("body_force", false, dim, "m/s^2, one per axis")
+                       .value_or(std::vector<double>(dim, 0.0));
+    m.finish();
+  }
+  {  // [time]
+    Table t = top.table("time", true);
+    c.end_time = t.real("end", true, "7.5e-3", positive, kPositive + " (s)").value_or(0.0);
+    const bool has_cfl = t.has("cfl"), has_dt = t.has("dt");
+    c.cfl = t.real("cfl", false, "0.9", [](double v) { return v > 0.0 && v <= 1.0; },
+                   "must lie in (0, 1]: the two-step scheme is unstable above CFL 1").value_or(0.0);
+    c.dt = t.real("dt", false, "1e-5", positive, kPositive + " (s)").value_or(0.0);
+    if (has_cfl && has_dt)
+      context.errors.push_back(context.where(t.get("dt", false, "")) +
+                               "time.cfl and time.dt are both given: keep one of them");
+    if (!has_cfl && !has_dt && t.present())
+      context.errors.push_back(context.where(t.self()) +
+                               "missing required key time.cfl (or time.dt) in [time]: add e.g. cfl = 0.9");
+    t.finish();
+  }
+  for (Table b : top.tables("boundary")) {
+    BoundarySpec s;
+    s.name = b.text("name", true).value_or("");
+    s.type = b.text("type", true, {"fixed", "free", "velocity", "traction"}).value_or("");
+    s.region = read_region(b.table("region", true), dim);
+    if (s.type == "velocity" || s.type == "traction") {
+      s.value = b.numbers("value", true, dim, s.type == "velocity" ? "m/s" : "Pa, sigma . n")
+                    .value_or(std::vector<double>(dim, 0.0));
+      s.time = read_time_function(b.table("time", false));
+      s.profile = b.text("profile", false, {"uniform", "cantilever_shear"}).value_or("uniform");
+      if (s.profile == "cantilever_shear" && (s.type != "traction" || c.dimension < 2 || c.box_lower.empty()))
+        context.invalid(b.get("profile", false, ""), b.path("profile"),
+                        "needs a traction condition on a box geometry in 2D or 3D");
+    } else {
+      s.value.assign(dim, 0.0);
+    }
+    if (s.region.type == "group" && c.particle_file.empty())
+      context.invalid(b.self(), b.path("region.type"), "'group' needs geometry.particle_file (groups are a column of it)");
+    b.finish();
+    c.boundaries.push_back(std::move(s));
+  }
+  {  // [initial]
+    Table i = top.table("initial", false);
+    c.initial_velocity = i.numbers("velocity", false, dim, "m/s").value_or(std::vector<double>(dim, 0.0));
+    c.velocity_gradient = i.numbers("velocity_gradient", false, dim * dim, "row by row, 1/s")
+                              .value_or(std::vector<double>(dim * dim, 0.0));
+    const std::size_t stress_count = dim == 1 ? 1 : dim == 2 ? 4 : dim == 3 ? 6 : 0;
+    c.initial_stress = i.numbers("stress", false, stress_count,
+                                 dim == 2 ? "xx, yy, xy, zz (Pa)" : "xx, yy, zz, xy, yz, zx (Pa)")
+                           .value_or(std::vector<double>(stress_count, 0.0));
+    i.finish();
+  }
+  {  // [damping]
+    Table d = top.table("damping", false);
+    c.damping = d.real("coefficient", false, "40", non_negative, "must be >= 0 (1/s)").value_or(0.0);
+    c.rest_velocity = d.real("rest_velocity", false, "1e-6", non_negative, "must be >= 0 (m/s)").value_or(0.0);
+    c.rest_after = d.real("rest_after", false, "0.4", non_negative, "must be >= 0 (s)").value_or(0.0);
+    c.rest_probe = d.text("rest_probe", false).value_or("");
+    d.finish();
+  }
+  {  // [output]
+    Table o = top.table("output", false);
+    c.output_times = o.numbers("times", false, 0, "").value_or(std::vector<double>{});
+    for (std::size_t k = 0; k < c.output_times.size(); ++k)
+      if (!(c.output_times[k] > 0.0 && c.output_times[k] <= c.end_time * (1.0 + 1e-12)) ||
+          (k > 0 && !(c.output_times[k] > c.output_times[k - 1]))) {
+        context.invalid(o.get("times", false, ""), o.path("times"),
+                        "each must lie in (0, time.end = " + format_number(c.end_time) +
+                            "], in increasing order");
+        break;
+      }
+    c.output_every = o.integer("every", false, "100", [](std::int64_t n) { return n >= 0; },
+                               "must be >= 0 (steps; 0: only the listed times)").value_or(0);
+    c.fields = o.strings("fields", known_output_fields()).value_or(known_output_fields());
+    c.output_virtual = o.boolean("virtual").value_or(false);
+    c.probe_every = o.integer("probe_every", false, "10", [](std::int64_t n) { return n >= 1; },
+                              "must be >= 1 (steps)").value_or(1);
+    for (Table p : o.tables("probe")) {
+      ProbeSpec s;
+      s.name = p.text("name", true).value_or("");
+      for (const char ch : s.name)
+        if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_' && ch != '-') {
+          context.invalid(p.get("name", false, ""), p.path("name"), "must use letters, digits, '_' or '-' only (it names a file)");
+          break;
+        }
+      if (p.has("point") == p.has("particle"))
+        context.errors.push_back(context.where(p.self()) + p.path("") +
+                                 " needs exactly one of point = [...] or particle = ID");
+      if (p.has("point")) s.point = p.numbers("point", true, dim, "one per axis").value_or(std::vector<double>{});
+      if (p.has("particle"))
+        s.particle = p.integer("particle", true, "0", [](std::int64_t i) { return i >= 0; }, "must be >= 0").value_or(-1);
+      p.finish();
+      c.probes.push_back(std::move(s));
+    }
+    o.finish();
+  }
+  {  // [exact]
+    Table e = top.table("exact", false);
+    c.exact = e.text("solution", e.present(), {"bar", "cantilever"}).value_or("");
+    if (c.exact == "bar") {
+      if (c.dimension != 1 || c.box_lower.empty())
+        context.invalid(e.get("solution", false, ""), e.path("solution"), "'bar' needs dimension = 1 and a box");
+      c.bar_amplitude = e.real("v0", true, "1.0").value_or(0.0);
+      c.bar_pulse_duration = e.real("t0", true, "2.5e-3", positive, kPositive + " (s)").value_or(0.0);
+      c.bar_left_end = e.text("left_end", false, {"fixed", "free"}).value_or("fixed");
+    } else if (c.exact == "cantilever") {
+      bool shear = false;
+      for (const auto& b : c.boundaries) shear = shear || b.profile == "cantilever_shear";
+      if (c.dimension < 2 || c.box_lower.empty() || !shear)
+        context.invalid(e.get("solution", false, ""), e.path("solution"),
+                        "'cantilever' needs dimension 2 or 3, a box, and a boundary with profile = "
+                        "\"cantilever_shear\" (its value[1] is the load P)");
+    }
+    e.finish();
+  }
+  if (!c.rest_probe.empty() &&
+      std::none_of(c.probes.begin(), c.probes.end(), [&](const ProbeSpec& p) { return p.name == c.rest_probe; }))
+    context.errors.push_back(path + ": damping.rest_probe = '" + c.rest_probe +
+                             "' is invalid: name one of the [[output.probe]] entries");
+  top.finish();
+  if (!context.errors.empty()) throw CaseError(context.errors);
+  return c;
+}
+
+}  // namespace tsph

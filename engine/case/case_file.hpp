@@ -1,0 +1,129 @@
+// Case files: a TOML description of a run (geometry, material, method, time, boundary
+// conditions, initial conditions, damping, output, exact solution), read with toml++
+// and validated key by key. The key reference is tools/CASES.md.
+//
+// Every problem is reported as "FILE:LINE:COLUMN: key = value is invalid: what is
+// allowed" (or "FILE: --set key: ..." for command-line overrides); an unknown key names
+// the nearest valid key. `load_case` collects every problem it can find and throws one
+// CaseError holding them all.
+#pragma once
+
+#include "engine/elasticity.hpp"
+#include "engine/taylor_sph.hpp"
+#include "kernels/corrected_operators.hpp"
+#include "kernels/smoothing_kernels.hpp"
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace tsph {
+
+/// Bad input in a case file or an override; what() holds every message, one per line.
+class CaseError : public std::invalid_argument {
+ public:
+  explicit CaseError(const std::vector<std::string>& messages);
+  const std::vector<std::string>& messages() const { return messages_; }
+
+ private:
+  std::vector<std::string> messages_;
+};
+
+/// A scalar function of time, scaled per component by a boundary's `value` vector.
+struct TimeFunctionSpec {
+  std::string type = "constant";  ///< constant | pulse | ramp | table
+  double start = 0.0, end = 0.0;  ///< pulse and ramp
+  std::vector<double> times, values;  ///< table
+};
+
+struct RegionSpec {
+  std::string type;  ///< box | half_space | group | all
+  std::vector<double> lower, upper;  ///< box
+  std::vector<double> point, normal; ///< half_space
+  std::int64_t group = 0;
+};
+
+struct BoundarySpec {
+  std::string name;
+  std::string type;  ///< fixed | free | velocity | traction
+  RegionSpec region;
+  std::vector<double> value;  ///< Dim components (velocity in m/s, traction in Pa)
+  TimeFunctionSpec time;
+  std::string profile = "uniform";  ///< uniform | cantilever_shear
+};
+
+struct ProbeSpec {
+  std::string name;
+  std::vector<double> point;      ///< the nearest real particle (initial positions)
+  std::int64_t particle = -1;     ///< or a particle id
+};
+
+struct CaseFile {
+  std::string path;       ///< the case file as given
+  std::string directory;  ///< its directory (particle files are relative to it)
+  std::string title;
+  int dimension = 0;
+  int threads = 0;
+
+  // [geometry]
+  double spacing = 0.0;
+  std::vector<double> box_lower, box_upper;  ///< empty when a particle file is used
+  std::string particle_file;                 ///< resolved against `directory`
+
+  // [material]
+  double young_modulus = 0.0, poisson_ratio = 0.0, density = 0.0;
+  PlaneMode plane_mode = PlaneMode::plane_stress;
+
+  // [method]
+  KernelKind kernel = KernelKind::cubic_spline;
+  double alpha = 0.0;
+  InterpolationKind interpolation = InterpolationKind::linear;
+  Kinematics kinematics = Kinematics::small_strain;
+  double hourglass = 0.0;
+  std::vector<double> body_force;
+
+  // [time]
+  double end_time = 0.0;
+  double cfl = 0.0;  ///< dt = cfl dx / c_p, or
+  double dt = 0.0;   ///< a fixed step (exactly one of the two is non-zero)
+
+  std::vector<BoundarySpec> boundaries;
+
+  // [initial]
+  std::vector<double> initial_velocity, velocity_gradient, initial_stress;
+
+  // [damping]
+  double damping = 0.0;
+  double rest_velocity = 0.0;  ///< 0: no rest criterion
+  double rest_after = 0.0;
+  std::string rest_probe;      ///< empty: the fastest real particle
+
+  // [output]
+  std::vector<double> output_times;
+  std::int64_t output_every = 0;
+  std::vector<std::string> fields;
+  bool output_virtual = false;
+  std::vector<ProbeSpec> probes;
+  std::int64_t probe_every = 1;
+
+  // [exact]
+  std::string exact;  ///< "" | bar | cantilever
+  double bar_amplitude = 0.0, bar_pulse_duration = 0.0;
+  std::string bar_left_end = "fixed";
+
+  bool has_field(const std::string& name) const;
+};
+
+/// The output fields a case may list.
+const std::vector<std::string>& known_output_fields();
+
+/// Reads and validates a case. `overrides` are "a.b=value" strings (--set), applied to
+/// the TOML table before validation; a value is TOML (1e-3, true, "text", [1, 2]) or,
+/// failing that, a bare string. Throws CaseError.
+CaseFile load_case(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// The edit distance used to suggest the nearest valid key.
+std::size_t edit_distance(const std::string& a, const std::string& b);
+
+}  // namespace tsph

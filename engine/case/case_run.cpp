@@ -1,0 +1,635 @@
+#include "engine/case/case_run.hpp"
+
+#include "engine/bar_case.hpp"
+#include "engine/cantilever_case.hpp"
+#include "engine/lattice.hpp"
+#include "engine/output/progress.hpp"
+#include "engine/output/vtu_writer.hpp"
+#include "engine/parallel.hpp"
+#include "engine/particle_file.hpp"
+#include "engine/region.hpp"
+#include "engine/taylor_sph.hpp"
+
+#include <fmt/core.h>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+namespace tsph {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// A scalar field of the exact solution, compared with the same quantity of the run.
+template <int Dim>
+struct ExactField {
+  std::string name;  ///< velocity_x, stress_xx, displacement_y
+  std::function<double(const Vector<Dim>& x0, double t)> exact;
+  std::function<double(const ParticleSet<Dim>& set, std::size_t i)> numerical;
+};
+
+template <int Dim>
+struct BuiltCase {
+  ParticleSet<Dim> real, virtual_particles;
+  std::vector<BoundaryCondition<Dim>> conditions;
+  std::vector<std::pair<std::string, std::size_t>> boundary_counts;
+  std::optional<LinearElastic<Dim>> material;
+  SolverSettings<Dim> settings;
+  double dt = 0.0, wave_speed = 0.0;
+  std::vector<ExactField<Dim>> exact;
+  std::optional<std::size_t> tip;          ///< cantilever: the tip particle on the axis
+  std::vector<std::size_t> axis;           ///< cantilever: the particles on the axis
+  double tip_exact = 0.0;
+};
+
+template <int Dim>
+Vector<Dim> to_vector(const std::vector<double>& v) {
+  Vector<Dim> out;
+  for (int d = 0; d < Dim; ++d) out[d] = v[static_cast<std::size_t>(d)];
+  return out;
+}
+
+TimeFunction make_time_function(const TimeFunctionSpec& f, double amplitude) {
+  if (f.type == "pulse") return TimeFunction::rectangular_pulse(amplitude, f.start, f.end);
+  if (f.type == "ramp") return TimeFunction::linear_ramp(amplitude, f.start, f.end);
+  if (f.type == "table") {
+    std::vector<double> values = f.values;
+    for (double& v : values) v *= amplitude;
+    return TimeFunction::table(f.times, values);
+  }
+  return TimeFunction::constant(amplitude);
+}
+
+template <int Dim>
+CantileverSettings<Dim> cantilever_settings(const CaseFile& c) {
+  CantileverSettings<Dim> s;
+  s.length = c.box_upper[0] - c.box_lower[0];
+  s.depth = c.box_upper[1] - c.box_lower[1];
+  if constexpr (Dim == 3) s.width = c.box_upper[2] - c.box_lower[2];
+  s.young_modulus = c.young_modulus;
+  s.poisson_ratio = c.poisson_ratio;
+  s.density = c.density;
+  s.plane_mode = c.plane_mode;
+  for (const auto& b : c.boundaries)
+    if (b.profile == "cantilever_shear") s.load = b.value[1];
+  return s;
+}
+
+template <int Dim>
+BuiltCase<Dim> build_case(const CaseFile& c) {
+  using Vec = Vector<Dim>;
+  BuiltCase<Dim> b;
+  const double dx = c.spacing;
+  try {
+    if (!c.box_lower.empty()) {
+      LatticeBox<Dim> box;
+      box.spacing = dx;
+      box.lower = to_vector<Dim>(c.box_lower);
+      for (int d = 0; d < Dim; ++d)
+        box.node_count[d] = std::llround((c.box_upper[d] - c.box_lower[d]) / dx) + 1;
+      b.real = make_real_lattice(box, c.density);
+      b.virtual_particles = make_virtual_lattice(box, c.density);
+    } else {
+      b.real = read_particle_csv<Dim>(c.particle_file, dx, c.density);
+      b.virtual_particles = make_virtual_particles(b.real, dx, c.density);
+    }
+  } catch (const std::invalid_argument& e) {
+    throw CaseError({c.path + ": geometry: " + e.what()});
+  }
+  if (b.virtual_particles.size() == 0)
+    throw CaseError({c.path + ": geometry: no lattice cell of spacing dx = " + format_number(dx) +
+                     " is filled by real particles, so there are no virtual particles: check "
+                     "geometry.spacing against the particle file"});
+
+  // Initial conditions: v = v0 + G x0 (G row by row), uniform stress, added to the
+  // particle file's values.
+  const Vec v0 = to_vector<Dim>(c.initial_velocity);
+  Matrix<Dim> gradient;
+  for (int r = 0; r < Dim; ++r)
+    for (int k = 0; k < Dim; ++k) gradient(r, k) = c.velocity_gradient[static_cast<std::size_t>(r * Dim + k)];
+  for (ParticleSet<Dim>* set : {&b.real, &b.virtual_particles})
+    for (std::size_t i = 0; i < set->size(); ++i) {
+      Vec x0;
+      for (int d = 0; d < Dim; ++d) x0[d] = set->initial_position[d][i];
+      const Vec v = v0 + gradient * x0;
+      for (int d = 0; d < Dim; ++d) set->velocity[d][i] += v[d];
+      for (int s = 0; s < stress_component_count<Dim>; ++s)
+        set->stress[s][i] += c.initial_stress[static_cast<std::size_t>(s)];
+    }
+
+  // Boundary conditions, assigned in order (later ones win where regions overlap).
+  const double tolerance = 1e-6 * dx;
+  std::vector<std::string> errors;
+  for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
+    const BoundarySpec& s = c.boundaries[k];
+    std::array<TimeFunction, Dim> components = BoundaryCondition<Dim>::filled(TimeFunction::constant(0.0));
+    for (int d = 0; d < Dim; ++d)
+      components[static_cast<std::size_t>(d)] = make_time_function(s.time, s.value[static_cast<std::size_t>(d)]);
+    typename BoundaryCondition<Dim>::Profile profile = BoundaryCondition<Dim>::uniform();
+    if constexpr (Dim >= 2) {
+      if (s.profile == "cantilever_shear") {
+        // Seed eq. (6): tau_xy = P / (2 I) (D^2 / 4 - y^2) over the end face; value = P.
+        const auto cs = cantilever_settings<Dim>(c);
+        const double centre = 0.5 * (c.box_lower[1] + c.box_upper[1]);
+        const double scale = 1.0 / (2.0 * cs.second_moment()), quarter = 0.25 * cs.depth * cs.depth;
+        profile = [=](const Vec& x) {
+          const double y = x[1] - centre;
+          return Vec(Vec::Ones() * (scale * (quarter - y * y)));
+        };
+      }
+    }
+    if (s.type == "fixed") b.conditions.push_back(BoundaryCondition<Dim>::fixed(s.name));
+    else if (s.type == "free") b.conditions.push_back(BoundaryCondition<Dim>::free(s.name));
+    else if (s.type == "velocity")
+      b.conditions.push_back(BoundaryCondition<Dim>::velocity(components, s.name, profile));
+    else
+      b.conditions.push_back(BoundaryCondition<Dim>::traction(components, s.name, profile));
+    Region<Dim> region;
+    if (s.region.type == "box")
+      region = Region<Dim>::box(s.name, to_vector<Dim>(s.region.lower), to_vector<Dim>(s.region.upper));
+    else if (s.region.type == "half_space")
+      region = Region<Dim>::half_space(s.name, to_vector<Dim>(s.region.point), to_vector<Dim>(s.region.normal));
+    else if (s.region.type == "group")
+      region = Region<Dim>::of_group(s.name, static_cast<std::int32_t>(s.region.group));
+    else  // all: a half-space that holds every particle
+      region = Region<Dim>::half_space(s.name, Vec::Constant(-1e300), Vec::Unit(0));
+    try {
+      assign_boundary(b.real, region, static_cast<std::int32_t>(k), tolerance);
+    } catch (const std::invalid_argument& e) {
+      errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + s.name + "': " + e.what());
+    }
+  }
+  if (!errors.empty()) throw CaseError(errors);
+  for (std::size_t k = 0; k < c.boundaries.size(); ++k)
+    b.boundary_counts.emplace_back(
+        c.boundaries[k].name,
+        static_cast<std::size_t>(std::count(b.real.boundary.begin(), b.real.boundary.end(), static_cast<std::int32_t>(k))));
+
+  b.settings.smoothing_length = c.alpha * dx;
+  b.settings.kernel = c.kernel;
+  b.settings.interpolation = c.interpolation;
+  b.settings.kinematics = c.kinematics;
+  b.settings.body_force = to_vector<Dim>(c.body_force);
+  b.settings.damping = c.damping;
+  b.settings.hourglass_coefficient = c.hourglass;
+  b.material.emplace(c.young_modulus, c.poisson_ratio, c.density,
+                     Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
+  b.wave_speed = b.material->p_wave_speed(c.density);
+  b.dt = c.dt > 0.0 ? c.dt : c.cfl * dx / b.wave_speed;
+  if (b.dt > dx / b.wave_speed * (1.0 + 1e-12))
+    throw CaseError({c.path + ": time.dt = " + format_number(c.dt) +
+                     " is invalid: exceeds the stability limit dx / c_p = " + format_number(dx / b.wave_speed) +
+                     " s (CFL 1); use a smaller dt or time.cfl"});
+
+  // Exact solutions, in material coordinates relative to the box.
+  if (c.exact == "bar") {
+    if constexpr (Dim == 1) {
+      BarCaseSettings s;
+      s.length = c.box_upper[0] - c.box_lower[0];
+      s.young_modulus = c.young_modulus;
+      s.density = c.density;
+      s.amplitude = c.bar_amplitude;
+      s.pulse_duration = c.bar_pulse_duration;
+      s.left_end = c.bar_left_end == "free" ? BarEnd::free : BarEnd::fixed;
+      const auto exact = std::make_shared<BarExactSolution>(s);
+      const double lower = c.box_lower[0];
+      b.exact.push_back({"velocity_x",
+                         [exact, lower](const Vec& x, double t) { return exact->velocity(x[0] - lower, t); },
+                         [](const ParticleSet<Dim>& p, std::size_t i) { return p.velocity[0][i]; }});
+      b.exact.push_back({"stress_xx",
+                         [exact, lower](const Vec& x, double t) { return exact->stress(x[0] - lower, t); },
+                         [](const ParticleSet<Dim>& p, std::size_t i) { return p.stress[0][i]; }});
+    }
+  } else if (c.exact == "cantilever") {
+    if constexpr (Dim >= 2) {
+      const auto cs = cantilever_settings<Dim>(c);
+      const auto exact = std::make_shared<CantileverExact<Dim>>(cs);
+      Vec centre;
+      for (int d = 0; d < Dim; ++d) centre[d] = 0.5 * (c.box_lower[d] + c.box_upper[d]);
+      centre[0] = c.box_lower[0];
+      b.exact.push_back({"displacement_y",
+                         [exact, centre](const Vec& x, double) { return exact->deflection(x[0] - centre[0], x[1] - centre[1]); },
+                         [](const ParticleSet<Dim>& p, std::size_t i) { return p.displacement[1][i]; }});
+      b.tip_exact = exact->tip_deflection();
+      for (std::size_t i = 0; i < b.real.size(); ++i) {
+        bool on_axis = true;
+        for (int d = 1; d < Dim; ++d) on_axis = on_axis && std::abs(b.real.initial_position[d][i] - centre[d]) < tolerance;
+        if (!on_axis) continue;
+        b.axis.push_back(i);
+        if (std::abs(b.real.initial_position[0][i] - c.box_upper[0]) < tolerance) b.tip = i;
+      }
+      if (!b.tip)
+        throw CaseError({c.path + ": exact.solution = 'cantilever' needs a real particle on the beam axis "
+                         "at the tip: choose geometry.spacing so that the depth holds an even number of spacings"});
+    }
+  }
+  return b;
+}
+
+/// Time steps to reach the end, landing on every output time (as the run does).
+std::int64_t count_steps(const CaseFile& c, double dt) {
+  std::int64_t steps = 0;
+  double t = 0.0;
+  std::vector<double> targets = c.output_times;
+  targets.push_back(c.end_time);
+  for (double target : targets) {
+    if (target <= t) continue;
+    steps += static_cast<std::int64_t>(std::ceil((target - t) / dt * (1.0 - 1e-9)));
+    t = target;
+  }
+  return steps;
+}
+
+template <int Dim>
+CaseOverview inspect(const CaseFile& c) {
+  BuiltCase<Dim> b = build_case<Dim>(c);
+  CaseOverview o;
+  o.real_particles = b.real.size();
+  o.virtual_particles = b.virtual_particles.size();
+  o.spacing = c.spacing;
+  o.smoothing_length = b.settings.smoothing_length;
+  o.wave_speed = b.wave_speed;
+  o.dt = b.dt;
+  o.steps = count_steps(c, b.dt);
+  o.frames = 2 + static_cast<std::int64_t>(c.output_times.size()) +
+             (c.output_every > 0 ? o.steps / c.output_every : 0);
+  o.boundary_particles = b.boundary_counts;
+  // Fields: 4 Dim vectors + stresses + mass, density, volume (doubles), 3 int32 tags.
+  const double per_particle = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double radius = 2.0 * c.alpha;  // support in units of dx
+  const double neighbours = Dim == 1 ? 2.0 * radius : Dim == 2 ? M_PI * radius * radius
+                                                              : 4.0 / 3.0 * M_PI * radius * radius * radius;
+  const double particles = static_cast<double>(o.real_particles + o.virtual_particles);
+  o.memory_bytes = particles * per_particle + particles * (4.0 * neighbours + 8.0);
+  return o;
+}
+
+// ---------------------------------------------------------------------------------
+// Output
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (char ch : s) {
+    switch (ch) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\t': out += "\\t"; break;
+      default:
+        if (static_cast<unsigned char>(ch) < 0x20) out += fmt::format("\\u{:04x}", ch);
+        else out += ch;
+    }
+  }
+  return out + "\"";
+}
+
+std::string json_number(double v) {
+  return std::isfinite(v) ? fmt::format("{:.17g}", v) : "null";
+}
+
+/// The six stress components in VTK's symmetric-tensor order XX, YY, ZZ, XY, YZ, XZ.
+template <int Dim>
+std::array<double, 6> stress_tensor(const ParticleSet<Dim>& p, std::size_t i) {
+  if constexpr (Dim == 1) return {p.stress[0][i], 0, 0, 0, 0, 0};
+  else if constexpr (Dim == 2) return {p.stress[0][i], p.stress[1][i], p.stress[3][i], p.stress[2][i], 0, 0};
+  else return {p.stress[0][i], p.stress[1][i], p.stress[2][i], p.stress[3][i], p.stress[4][i], p.stress[5][i]};
+}
+
+double von_mises(const std::array<double, 6>& s) {
+  const double a = s[0] - s[1], b = s[1] - s[2], d = s[2] - s[0];
+  return std::sqrt(0.5 * (a * a + b * b + d * d) + 3.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]));
+}
+
+template <int Dim>
+output::VtuFrame snapshot(const ParticleSet<Dim>& p, const CaseFile& c, const BuiltCase<Dim>* b,
+                          double time) {
+  output::VtuFrame f;
+  const std::size_t n = p.size();
+  f.point_count = n;
+  f.points.assign(3 * n, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < Dim; ++d) f.points[3 * i + static_cast<std::size_t>(d)] = p.position[d][i];
+  auto vector_field = [&](const char* name, const std::array<std::vector<double>, Dim>& field) {
+    output::VtuArray a{name, 3, std::vector<double>(3 * n, 0.0), {}, false};
+    for (std::size_t i = 0; i < n; ++i)
+      for (int d = 0; d < Dim; ++d) a.float64[3 * i + static_cast<std::size_t>(d)] = field[d][i];
+    f.arrays.push_back(std::move(a));
+  };
+  if (c.has_field("velocity")) vector_field("velocity", p.velocity);
+  if (c.has_field("displacement")) vector_field("displacement", p.displacement);
+  if (c.has_field("stress") || c.has_field("von_mises")) {
+    output::VtuArray stress{"stress", 6, std::vector<double>(6 * n), {}, false};
+    output::VtuArray mises{"von_mises", 1, std::vector<double>(n), {}, false};
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto s = stress_tensor(p, i);
+      std::copy(s.begin(), s.end(), stress.float64.begin() + static_cast<std::ptrdiff_t>(6 * i));
+      mises.float64[i] = von_mises(s);
+    }
+    if (c.has_field("stress")) f.arrays.push_back(std::move(stress));
+    if (c.has_field("von_mises")) f.arrays.push_back(std::move(mises));
+  }
+  if (c.has_field("density")) f.arrays.push_back({"density", 1, p.density, {}, false});
+  if (c.has_field("id")) f.arrays.push_back({"id", 1, {}, p.id, true});
+  if (b && c.has_field("exact"))
+    for (const auto& e : b->exact) {
+      output::VtuArray a{"exact_" + e.name, 1, std::vector<double>(n), {}, false};
+      for (std::size_t i = 0; i < n; ++i) {
+        Vector<Dim> x0;
+        for (int d = 0; d < Dim; ++d) x0[d] = p.initial_position[d][i];
+        a.float64[i] = e.exact(x0, time);
+      }
+      f.arrays.push_back(std::move(a));
+    }
+  return f;
+}
+
+template <int Dim>
+struct Probe {
+  std::string name;
+  std::size_t index = 0;
+  std::ofstream file;
+};
+
+template <int Dim>
+std::vector<std::unique_ptr<Probe<Dim>>> open_probes(const CaseFile& c, const ParticleSet<Dim>& real,
+                                                     const fs::path& out) {
+  std::vector<std::unique_ptr<Probe<Dim>>> probes;
+  for (const auto& s : c.probes) {
+    auto p = std::make_unique<Probe<Dim>>();
+    p->name = s.name;
+    if (s.particle >= 0) {
+      const auto it = std::find(real.id.begin(), real.id.end(), static_cast<std::uint32_t>(s.particle));
+      if (it == real.id.end() || static_cast<std::size_t>(s.particle) >= real.size())
+        throw CaseError({c.path + ": output.probe '" + s.name + "': particle = " + std::to_string(s.particle) +
+                         " is invalid: ids run from 0 to " + std::to_string(real.size() - 1)});
+      p->index = static_cast<std::size_t>(it - real.id.begin());
+    } else {
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < real.size(); ++i) {
+        double r2 = 0.0;
+        for (int d = 0; d < Dim; ++d) {
+          const double e = real.initial_position[d][i] - s.point[static_cast<std::size_t>(d)];
+          r2 += e * e;
+        }
+        if (r2 < best) {
+          best = r2;
+          p->index = i;
+        }
+      }
+    }
+    const fs::path path = out / ("probe_" + s.name + ".csv");
+    p->file.open(path);
+    if (!p->file) throw std::runtime_error("cannot write '" + path.string() + "'");
+    const char* axes[] = {"x", "y", "z"};
+    std::string header = "t";
+    for (const char* prefix : {"x0_", "u", "v"})
+      for (int d = 0; d < Dim; ++d) header += std::string(",") + prefix + axes[d];
+    header += ",sxx,syy,szz,sxy,syz,sxz,von_mises\n";
+    p->file << "# probe " << s.name << ": real particle id " << real.id[p->index] << "\n" << header;
+    probes.push_back(std::move(p));
+  }
+  return probes;
+}
+
+template <int Dim>
+void record_probes(std::vector<std::unique_ptr<Probe<Dim>>>& probes, const ParticleSet<Dim>& r, double t) {
+  for (auto& p : probes) {
+    const std::size_t i = p->index;
+    std::string line = fmt::format("{:.10e}", t);
+    for (int d = 0; d < Dim; ++d) line += fmt::format(",{:.10e}", r.initial_position[d][i]);
+    for (int d = 0; d < Dim; ++d) line += fmt::format(",{:.10e}", r.displacement[d][i]);
+    for (int d = 0; d < Dim; ++d) line += fmt::format(",{:.10e}", r.velocity[d][i]);
+    const auto s = stress_tensor(r, i);
+    for (double v : s) line += fmt::format(",{:.10e}", v);
+    line += fmt::format(",{:.10e}\n", von_mises(s));
+    p->file << line;
+  }
+}
+
+const char* status_name(RunReport::Status s) {
+  switch (s) {
+    case RunReport::Status::finished: return "finished";
+    case RunReport::Status::at_rest: return "at_rest";
+    case RunReport::Status::not_at_rest: return "not_at_rest";
+    case RunReport::Status::interrupted: return "interrupted";
+  }
+  return "?";
+}
+
+template <int Dim>
+void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, const RunReport& r,
+                   const BuiltCase<Dim>& b, const std::string& status, const std::string& message) {
+  std::string overrides;
+  for (const auto& s : o.overrides) overrides += (overrides.empty() ? "" : ", ") + json_string(s);
+  std::string errors;
+  for (const auto& e : r.errors)
+    errors += fmt::format("{}\n    {{\"time\": {}, \"name\": {}, \"value\": {}}}", errors.empty() ? "" : ",",
+                          json_number(e.time), json_string(e.name), json_number(e.value));
+  std::string text = fmt::format(
+      "{{\n  \"program\": \"tsph\",\n  \"version\": {},\n  \"case\": {},\n  \"title\": {},\n"
+      "  \"overrides\": [{}],\n  \"status\": {},\n  \"message\": {},\n"
+      "  \"resolved\": {{\"dimension\": {}, \"real_particles\": {}, \"virtual_particles\": {}, "
+      "\"spacing\": {}, \"smoothing_length\": {}, \"alpha\": {}, \"kernel\": {}, \"interpolation\": {}, "
+      "\"kinematics\": {}, \"E\": {}, \"nu\": {}, \"rho\": {}, \"plane\": {}, \"p_wave_speed\": {}, "
+      "\"dt\": {}, \"cfl\": {}, \"end_time\": {}, \"damping\": {}, \"hourglass\": {}, \"threads\": {}}},\n"
+      "  \"time\": {},\n  \"steps\": {},\n  \"wall_seconds\": {},\n  \"particle_steps_per_second\": {},\n"
+      "  \"output_frames\": {},\n  \"output_writer_seconds\": {},\n  \"output_wait_seconds\": {},\n"
+      "  \"errors\": [{}\n  ]\n}}\n",
+      json_string(o.version), json_string(c.path), json_string(c.title), overrides, json_string(status),
+      json_string(message), Dim, r.real_particles, r.virtual_particles, json_number(c.spacing),
+      json_number(b.settings.smoothing_length), json_number(c.alpha), json_string(std::string(to_string(c.kernel))),
+      json_string(std::string(to_string(c.interpolation))), json_string(std::string(to_string(c.kinematics))),
+      json_number(c.young_modulus), json_number(c.poisson_ratio), json_number(c.density),
+      json_string(Dim == 2 ? (c.plane_mode == PlaneMode::plane_strain ? "strain" : "stress") : "none"),
+      json_number(b.wave_speed), json_number(b.dt), json_number(b.dt * b.wave_speed / c.spacing),
+      json_number(c.end_time), json_number(c.damping), json_number(c.hourglass), thread_count(),
+      json_number(r.time), r.steps, json_number(r.wall_seconds), json_number(r.particle_steps_per_second),
+      r.frames, json_number(r.output_busy_seconds), json_number(r.output_wait_seconds), errors);
+  output::write_text_file((out / "summary.json").string(), text);
+}
+
+template <int Dim>
+RunReport run(const CaseFile& c, const RunOptions& o) {
+  BuiltCase<Dim> b = build_case<Dim>(c);
+  const fs::path out(o.out_dir);
+  RunReport report;
+  report.real_particles = b.real.size();
+  report.virtual_particles = b.virtual_particles.size();
+  report.dt = b.dt;
+  std::optional<TaylorSph<Dim>> solver;
+  try {
+    solver.emplace(std::move(b.real), std::move(b.virtual_particles), *b.material, b.settings, b.conditions);
+  } catch (const std::invalid_argument& e) {
+    throw CaseError({c.path + ": " + e.what()});
+  }
+  auto probes = open_probes<Dim>(c, solver->real(), out);
+  std::optional<std::size_t> rest_index;
+  for (const auto& p : probes)
+    if (p->name == c.rest_probe) rest_index = p->index;
+
+  // Output: frames written by a background thread from snapshots.
+  output::BackgroundWriter writer;
+  std::vector<output::PvdEntry> real_series, virtual_series;
+  double last_frame_time = -1.0;
+  auto errors_at = [&](double t) {
+    const auto& r = solver->real();
+    for (const auto& e : b.exact) {
+      std::vector<double> numerical(r.size()), exact(r.size());
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        Vector<Dim> x0;
+        for (int d = 0; d < Dim; ++d) x0[d] = r.initial_position[d][i];
+        numerical[i] = e.numerical(r, i);
+        exact[i] = e.exact(x0, t);
+      }
+      report.errors.push_back({t, e.name + "_l2_percent", relative_l2_percent(numerical, exact)});
+    }
+    if (b.tip) {
+      const double tip = r.displacement[1][*b.tip];
+      report.errors.push_back({t, "tip_displacement_y", tip});
+      report.errors.push_back({t, "tip_displacement_y_exact", b.tip_exact});
+      report.errors.push_back({t, "tip_error_percent", 100.0 * std::abs(tip - b.tip_exact) / std::abs(b.tip_exact)});
+      std::vector<double> numerical, exact;
+      for (std::size_t i : b.axis) {
+        Vector<Dim> x0;
+        for (int d = 0; d < Dim; ++d) x0[d] = r.initial_position[d][i];
+        numerical.push_back(r.displacement[1][i]);
+        exact.push_back(b.exact.front().exact(x0, t));
+      }
+      report.errors.push_back({t, "axis_displacement_y_l2_percent", relative_l2_percent(numerical, exact)});
+    }
+  };
+  auto frame = [&] {
+    const double t = solver->time();
+    const std::size_t k = report.frames++;
+    last_frame_time = t;
+    errors_at(t);
+    const std::string real_name = fmt::format("particles_{:06d}.vtu", k);
+    real_series.push_back({t, real_name});
+    auto real_frame = std::make_shared<output::VtuFrame>(snapshot(solver->real(), c, &b, t));
+    std::shared_ptr<output::VtuFrame> virtual_frame;
+    std::string virtual_name;
+    if (c.output_virtual) {
+      virtual_name = fmt::format("virtual_{:06d}.vtu", k);
+      virtual_series.push_back({t, virtual_name});
+      virtual_frame = std::make_shared<output::VtuFrame>(snapshot<Dim>(solver->virtual_particles(), c, nullptr, t));
+    }
+    writer.submit([=, real_series = real_series, virtual_series = virtual_series] {
+      output::write_vtu((out / real_name).string(), *real_frame);
+      output::write_pvd((out / "particles.pvd").string(), real_series);
+      if (virtual_frame) {
+        output::write_vtu((out / virtual_name).string(), *virtual_frame);
+        output::write_pvd((out / "virtual.pvd").string(), virtual_series);
+      }
+    });
+    for (auto& p : probes) p->file.flush();
+  };
+
+  output::ProgressLine progress(o.progress, o.quiet, c.end_time, report.real_particles);
+  const double dt = b.dt;
+  std::size_t next_time = 0;
+  std::string message;
+  const auto start = std::chrono::steady_clock::now();
+  frame();
+  record_probes(probes, solver->real(), 0.0);
+  try {
+    while (solver->time() < c.end_time - 1e-9 * dt) {
+      const double target = next_time < c.output_times.size() ? c.output_times[next_time] : c.end_time;
+      const double remaining = target - solver->time();
+      const bool lands = remaining <= dt * (1.0 + 1e-9);
+      solver->step(lands ? remaining : dt);
+      if (lands) solver->set_time(target);
+      const std::int64_t step = solver->counters().steps;
+      bool write = false;
+      while (next_time < c.output_times.size() && solver->time() >= c.output_times[next_time] - 1e-9 * dt) {
+        ++next_time;
+        write = true;
+      }
+      if (c.output_every > 0 && step % c.output_every == 0) write = true;
+      if (step % c.probe_every == 0 || write) record_probes(probes, solver->real(), solver->time());
+      if (c.rest_velocity > 0.0 && solver->time() >= c.rest_after) {
+        const auto& r = solver->real();
+        double speed = 0.0;
+        auto speed_of = [&](std::size_t i) {
+          double v2 = 0.0;
+          for (int d = 0; d < Dim; ++d) v2 += r.velocity[d][i] * r.velocity[d][i];
+          return std::sqrt(v2);
+        };
+        if (rest_index) speed = speed_of(*rest_index);
+        else
+          for (std::size_t i = 0; i < r.size(); ++i) speed = std::max(speed, speed_of(i));
+        if (speed < c.rest_velocity) {
+          report.status = RunReport::Status::at_rest;
+          message = fmt::format("at rest at t = {} s: speed {:.3e} m/s < rest_velocity", solver->time(), speed);
+          break;
+        }
+      }
+      if (write) frame();
+      progress.update(step, solver->time());
+      if (o.stop_requested && *o.stop_requested) {
+        report.status = RunReport::Status::interrupted;
+        message = fmt::format("interrupted by a signal at t = {} s", solver->time());
+        break;
+      }
+    }
+  } catch (const std::runtime_error& e) {
+    message = e.what();
+    report.time = solver->time();
+    report.steps = solver->counters().steps;
+    writer.finish();
+    write_summary(out, c, o, report, b, "diverged", message);
+    throw RunDiverged(message);
+  }
+  if (report.status == RunReport::Status::finished && c.rest_velocity > 0.0) {
+    report.status = RunReport::Status::not_at_rest;
+    message = fmt::format("not at rest by time.end = {} s (damping.rest_velocity = {} m/s)", c.end_time,
+                          c.rest_velocity);
+  }
+  if (last_frame_time != solver->time()) {
+    record_probes(probes, solver->real(), solver->time());
+    frame();
+  }
+  progress.finish(solver->counters().steps, solver->time());
+  writer.finish();
+  const auto stop = std::chrono::steady_clock::now();
+  report.wall_seconds = std::chrono::duration<double>(stop - start).count();
+  report.time = solver->time();
+  report.steps = solver->counters().steps;
+  report.particle_steps_per_second = static_cast<double>(report.real_particles) *
+                                     static_cast<double>(report.steps) / std::max(report.wall_seconds, 1e-12);
+  report.output_busy_seconds = writer.busy_seconds();
+  report.output_wait_seconds = writer.waited_seconds();
+  for (auto& p : probes) p->file.close();
+  write_summary(out, c, o, report, b, status_name(report.status), message);
+  return report;
+}
+
+}  // namespace
+
+CaseOverview inspect_case(const CaseFile& c) {
+  switch (c.dimension) {
+    case 1: return inspect<1>(c);
+    case 2: return inspect<2>(c);
+    case 3: return inspect<3>(c);
+  }
+  throw CaseError({c.path + ": dimension must be 1, 2 or 3"});
+}
+
+RunReport run_case(const CaseFile& c, const RunOptions& options) {
+  switch (c.dimension) {
+    case 1: return run<1>(c, options);
+    case 2: return run<2>(c, options);
+    case 3: return run<3>(c, options);
+  }
+  throw CaseError({c.path + ": dimension must be 1, 2 or 3"});
+}
+
+}  // namespace tsph

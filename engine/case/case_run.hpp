@@ -1,0 +1,70 @@
+// Running a case file: builds the particles, conditions and solver from a CaseFile,
+// steps to the end time (landing on every output time), writes the VTU/PVD series,
+// probe CSVs and summary.json into the output directory, and compares with the exact
+// solution the case names.
+#pragma once
+
+#include "engine/case/case_file.hpp"
+
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace tsph {
+
+/// The run stopped because the solution became non-finite (exit status 3).
+class RunDiverged : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// What `tsph check` prints: the resolved case, without running it.
+struct CaseOverview {
+  std::size_t real_particles = 0, virtual_particles = 0;
+  double spacing = 0.0, smoothing_length = 0.0, wave_speed = 0.0, dt = 0.0;
+  std::int64_t steps = 0;  ///< to the end time, with the output times landed on
+  std::int64_t frames = 0;
+  double memory_bytes = 0.0;  ///< estimate: particle fields and neighbour lists
+  std::vector<std::pair<std::string, std::size_t>> boundary_particles;  ///< per condition
+};
+
+struct RunOptions {
+  std::string out_dir;
+  bool quiet = false;
+  std::FILE* progress = stdout;
+  std::string version;
+  std::vector<std::string> overrides;
+  /// Set by a signal handler: the run stops after the current step, writing its output.
+  const volatile std::sig_atomic_t* stop_requested = nullptr;
+};
+
+struct ErrorRecord {
+  double time = 0.0;
+  std::string name;  ///< e.g. velocity_l2_percent, tip_error_percent
+  double value = 0.0;
+};
+
+struct RunReport {
+  enum class Status { finished, at_rest, not_at_rest, interrupted };
+  Status status = Status::finished;
+  double time = 0.0;
+  std::int64_t steps = 0;
+  double dt = 0.0;
+  double wall_seconds = 0.0, particle_steps_per_second = 0.0;
+  double output_busy_seconds = 0.0, output_wait_seconds = 0.0;
+  std::size_t real_particles = 0, virtual_particles = 0, frames = 0;
+  std::vector<ErrorRecord> errors;
+};
+
+/// Builds the case without stepping it. Throws CaseError (bad geometry, a region that
+/// selects nothing, a malformed particle file).
+CaseOverview inspect_case(const CaseFile& c);
+
+/// Runs the case. The output directory must exist. Throws CaseError for bad input
+/// found while building, RunDiverged, or std::runtime_error for I/O failures.
+RunReport run_case(const CaseFile& c, const RunOptions& options);
+
+}  // namespace tsph

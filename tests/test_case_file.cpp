@@ -1,0 +1,262 @@
+// Case files: every shipped case is accepted; each class of bad input is refused with
+// a message naming the file, line, key, value and the fix; overrides work; the bar
+// case file reproduces run_bar (the same physics through the generic path).
+#include "engine/bar_case.hpp"
+#include "engine/case/case_file.hpp"
+#include "engine/case/case_run.hpp"
+#include "engine/parallel.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace tsph;
+
+const fs::path kCases = fs::path(TSPH_SOURCE_DIR) / "tools" / "cases";
+
+class CaseFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    directory_ = fs::temp_directory_path() /
+                 ("tsph_case_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+                  ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(directory_);
+    fs::create_directories(directory_);
+  }
+  void TearDown() override { fs::remove_all(directory_); }
+
+  std::string write(const std::string& name, const std::string& text) {
+    const fs::path p = directory_ / name;
+    std::ofstream(p) << text;
+    return p.string();
+  }
+  /// The message of the CaseError that loading `text` throws ("" if none).
+  std::string error_of(const std::string& text, const std::vector<std::string>& overrides = {}) {
+    const std::string path = write("case.toml", text);
+    try {
+      load_case(path, overrides);
+    } catch (const CaseError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  fs::path directory_;
+};
+
+const std::string kValid2d = R"(dimension = 2
+[geometry]
+spacing = 0.1
+box = { lower = [0.0, 0.0], upper = [1.0, 0.4] }
+[material]
+E = 1e6
+nu = 0.25
+rho = 1000.0
+[method]
+alpha = 0.6
+[time]
+end = 1e-3
+cfl = 0.5
+[[boundary]]
+name = "left"
+type = "fixed"
+region = { type = "half_space", point = [0.0, 0.0], normal = [-1.0, 0.0] }
+)";
+
+TEST_F(CaseFileTest, EveryShippedCaseIsAcceptedAndBuilds) {
+  int count = 0;
+  for (const auto& entry : fs::directory_iterator(kCases)) {
+    if (entry.path().extension() != ".toml") continue;
+    ++count;
+    SCOPED_TRACE(entry.path().string());
+    const CaseFile c = load_case(entry.path().string());
+    const CaseOverview o = inspect_case(c);
+    EXPECT_GT(o.real_particles, 0u);
+    EXPECT_GT(o.virtual_particles, 0u);
+    EXPECT_GT(o.steps, 0);
+    for (const auto& [name, n] : o.boundary_particles) EXPECT_GT(n, 0u) << name;
+  }
+  EXPECT_GE(count, 3);
+}
+
+TEST_F(CaseFileTest, ShippedCasesResolveToTheSeedSettings) {
+  const CaseFile bar = load_case((kCases / "bar.toml").string());
+  const CaseOverview b = inspect_case(bar);
+  EXPECT_EQ(b.real_particles, 101u);
+  EXPECT_EQ(b.virtual_particles, 100u);
+  EXPECT_DOUBLE_EQ(b.wave_speed, 200.0);
+  EXPECT_DOUBLE_EQ(b.dt, 5e-5);
+  EXPECT_EQ(b.steps, 150);
+  const CaseFile beam = load_case((kCases / "cantilever_2d.toml").string());
+  const CaseOverview c = inspect_case(beam);
+  EXPECT_EQ(c.real_particles, 101u * 11u);
+  EXPECT_EQ(c.virtual_particles, 100u * 10u);
+  ASSERT_EQ(c.boundary_particles.size(), 4u);
+  EXPECT_EQ(c.boundary_particles[3].second, 11u);  // the clamp: the whole face x = 0
+  EXPECT_EQ(c.boundary_particles[2].second, 11u);  // the tip face, corners included
+  EXPECT_EQ(c.boundary_particles[0].second, 99u);  // top, less the two corners
+}
+
+TEST_F(CaseFileTest, OverridesReplaceScalarsAndAreValidated) {
+  const std::string path = (kCases / "cantilever_2d.toml").string();
+  const CaseFile c = load_case(path, {"material.E=2e8", "material.plane=strain", "method.kernel=\"wendland_c2\""});
+  EXPECT_DOUBLE_EQ(c.young_modulus, 2e8);
+  EXPECT_EQ(c.plane_mode, PlaneMode::plane_strain);
+  EXPECT_EQ(c.kernel, KernelKind::wendland_c2);
+  const CaseFile d = load_case(path, {"boundary.2.value=[0.0, 500.0]"});
+  EXPECT_DOUBLE_EQ(d.boundaries[2].value[1], 500.0);
+  auto message = [&](const std::string& o) {
+    try {
+      load_case(path, {o});
+    } catch (const CaseError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(message("material.E=-1").find("material.E = -1 is invalid: must be positive"), std::string::npos)
+      << message("material.E=-1");
+  EXPECT_NE(message("material.Young=1").find("unknown key material.Young: did you mean material.E?"),
+            std::string::npos)
+      << message("material.Young=1");
+  EXPECT_NE(message("material=3").find("names a table"), std::string::npos);
+  EXPECT_NE(message("nokey").find("write --set key=value"), std::string::npos);
+  EXPECT_NE(message("boundary.9.value=[0.0, 1.0]").find("not an index"), std::string::npos);
+}
+
+TEST_F(CaseFileTest, SyntaxErrorNamesFileLineAndColumn) {
+  const std::string e = error_of("dimension = 2\n[geometry\nspacing = 0.1\n");
+  EXPECT_TRUE(std::regex_search(e, std::regex("case\\.toml:2:[0-9]+: TOML syntax error"))) << e;
+}
+
+TEST_F(CaseFileTest, UnknownKeySuggestsTheNearest) {
+  std::string text = kValid2d;
+  text.replace(text.find("alpha = 0.6"), 11, "alpah = 0.6");
+  const std::string e = error_of(text);
+  EXPECT_TRUE(std::regex_search(e, std::regex("case\\.toml:10:1: unknown key method\\.alpah: did you mean method\\.alpha\\?")))
+      << e;
+  EXPECT_NE(e.find("missing required key method.alpha"), std::string::npos) << e;
+}
+
+TEST_F(CaseFileTest, WrongTypeOutOfRangeAndMissingKeys) {
+  auto replaced = [](std::string text, const std::string& from, const std::string& to) {
+    text.replace(text.find(from), from.size(), to);
+    return text;
+  };
+  std::string e = error_of(replaced(kValid2d, "E = 1e6", "E = \"stiff\""));
+  EXPECT_TRUE(std::regex_search(e, std::regex("case\\.toml:6:5: material\\.E = 'stiff' is invalid: must be a number"))) << e;
+  e = error_of(replaced(kValid2d, "cfl = 0.5", "cfl = 1.5"));
+  EXPECT_NE(e.find("time.cfl = 1.5 is invalid: must lie in (0, 1]"), std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "nu = 0.25", "nu = 0.5"));
+  EXPECT_NE(e.find("material.nu = 0.5 is invalid: must lie in (-1, 0.5)"), std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "rho = 1000.0\n", ""));
+  EXPECT_NE(e.find("missing required key material.rho in [material]: add e.g. rho = 2000"), std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "upper = [1.0, 0.4]", "upper = [1.0]"));
+  EXPECT_NE(e.find("geometry.box.upper = [ 1.0 ] is invalid: must have 2 components"), std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "upper = [1.0, 0.4]", "upper = [1.0, 0.45]"));
+  EXPECT_NE(e.find("whole number"), std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "type = \"fixed\"", "type = \"fixd\""));
+  EXPECT_NE(e.find("boundary[0].type = 'fixd' is invalid: must be one of: fixed, free, velocity, traction (did you mean 'fixed'?)"),
+            std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "dimension = 2", "dimension = 4"));
+  EXPECT_NE(e.find("dimension = 4 is invalid: must be 1, 2 or 3"), std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "cfl = 0.5", "cfl = 0.5\ndt = 1e-6"));
+  EXPECT_NE(e.find("keep one of them"), std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nkinematics = 3"));
+  EXPECT_NE(e.find("method.kinematics = 3 is invalid: must be one of (in quotes): small_strain"), std::string::npos) << e;
+}
+
+TEST_F(CaseFileTest, RegionSelectingNothingIsRefusedWhenBuilding) {
+  std::string text = kValid2d;
+  const std::string plane = "point = [0.0, 0.0], normal = [-1.0, 0.0]";
+  text.replace(text.find(plane), plane.size(), "point = [-1.0, 0.0], normal = [-1.0, 0.0]");
+  const CaseFile c = load_case(write("case.toml", text));
+  try {
+    inspect_case(c);
+    FAIL() << "no error";
+  } catch (const CaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("boundary[0] 'left': region 'left' selects no particle"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(CaseFileTest, MissingAndMalformedParticleFiles) {
+  std::string text = kValid2d;
+  const std::string box = "box = { lower = [0.0, 0.0], upper = [1.0, 0.4] }";
+  text.replace(text.find(box), box.size(), "particle_file = \"beam.csv\"");
+  const std::string path = write("case.toml", text);
+  {
+    const CaseFile c = load_case(path);
+    try {
+      inspect_case(c);
+      FAIL() << "no error";
+    } catch (const CaseError& e) {
+      EXPECT_NE(std::string(e.what()).find("particle file '" + (directory_ / "beam.csv").string() + "' cannot be opened"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  write("beam.csv", "x,y\n0,0\n0.1,0\n0.1,zero\n");
+  const CaseFile c = load_case(path);
+  try {
+    inspect_case(c);
+    FAIL() << "no error";
+  } catch (const CaseError& e) {
+    EXPECT_TRUE(std::regex_search(std::string(e.what()), std::regex("beam\\.csv.*line 4"))) << e.what();
+  }
+  // Both a box and a file: refused at load.
+  std::string both = kValid2d;
+  both.replace(both.find("[material]"), 10, "particle_file = \"beam.csv\"\n[material]");
+  EXPECT_NE(error_of(both).find("exactly one of"), std::string::npos) << error_of(both);
+}
+
+TEST_F(CaseFileTest, MissingCaseFile) {
+  try {
+    load_case((directory_ / "none.toml").string());
+    FAIL() << "no error";
+  } catch (const CaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("none.toml: case file cannot be read (no such file)"), std::string::npos);
+  }
+}
+
+TEST(EditDistance, CountsInsertionsDeletionsSubstitutions) {
+  EXPECT_EQ(edit_distance("alpha", "alpha"), 0u);
+  EXPECT_EQ(edit_distance("alpah", "alpha"), 2u);
+  EXPECT_EQ(edit_distance("E", "e"), 0u);
+  EXPECT_EQ(edit_distance("", "rho"), 3u);
+  EXPECT_EQ(edit_distance("kitten", "sitting"), 3u);
+}
+
+// The bar case file runs the same physics as run_bar: identical errors to round-off
+// (the same particles, conditions and steps, so they are in fact bitwise equal).
+TEST_F(CaseFileTest, BarCaseFileReproducesRunBar) {
+  const CaseFile c = load_case((kCases / "bar.toml").string());
+  RunOptions options;
+  options.out_dir = directory_.string();
+  options.quiet = true;
+  set_thread_count(1);  // 101 particles: one thread is fastest on a busy machine
+  const RunReport r = run_case(c, options);
+  BarCaseSettings s;
+  const BarResult reference = run_bar(s);
+  ASSERT_EQ(reference.profiles.size(), 2u);
+  std::vector<double> velocity_errors;
+  for (const auto& e : r.errors)
+    if (e.name == "velocity_x_l2_percent" && e.time > 0.0) velocity_errors.push_back(e.value);
+  ASSERT_EQ(velocity_errors.size(), 2u);
+  EXPECT_EQ(velocity_errors[0], reference.profiles[0].velocity_error_percent);
+  EXPECT_EQ(velocity_errors[1], reference.profiles[1].velocity_error_percent);
+  EXPECT_LT(velocity_errors[1], 1e-9);  // alpha 0.6, CFL 1: exact (README, Table 1)
+  EXPECT_EQ(r.steps, reference.steps);
+  EXPECT_EQ(r.frames, 3u);
+  EXPECT_TRUE(fs::exists(directory_ / "particles.pvd"));
+  EXPECT_TRUE(fs::exists(directory_ / "particles_000002.vtu"));
+  EXPECT_TRUE(fs::exists(directory_ / "summary.json"));
+  EXPECT_TRUE(fs::exists(directory_ / "probe_middle.csv"));
+}
+
+}  // namespace

@@ -1,0 +1,217 @@
+// tsph: runs a case file (TOML; key reference in tools/CASES.md).
+//
+//   tsph run CASE [--set key=value]... [--out DIR] [--overwrite] [--threads N] [--quiet]
+//   tsph check CASE [--set key=value]...
+//   tsph --version
+//
+// Exit status: 0 success, 2 bad input (case file, overrides, output directory),
+// 3 the run diverged or did not come to rest, 1 other failure (including a run stopped
+// by SIGINT/SIGTERM, which still writes its last frame and summary.json).
+#include "engine/case/case_file.hpp"
+#include "engine/case/case_run.hpp"
+#include "engine/parallel.hpp"
+#include "tools/cli_common.hpp"
+
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#ifndef TSPH_VERSION
+#define TSPH_VERSION "unknown"
+#endif
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace tsph;
+
+volatile std::sig_atomic_t stop_requested = 0;
+
+extern "C" void on_signal(int signal) {
+  stop_requested = 1;
+  std::signal(signal, SIG_DFL);  // a second Ctrl-C ends the program at once
+}
+
+struct Options {
+  std::string case_path;
+  std::vector<std::string> overrides;
+  std::string out;
+  bool overwrite = false;
+  int threads = -1;
+  bool quiet = false;
+};
+
+void print_errors(const CaseError& e) {
+  for (const auto& m : e.messages()) fmt::print(stderr, "tsph: error: {}\n", m);
+}
+
+/// The files a run writes (and --overwrite replaces).
+bool is_tsph_output(const fs::path& p) {
+  const std::string name = p.filename().string();
+  auto starts = [&](const char* s) { return name.rfind(s, 0) == 0; };
+  const std::string ext = p.extension().string();
+  return ((starts("particles_") || starts("virtual_")) && (ext == ".vtu" || ext == ".tmp")) ||
+         name == "particles.pvd" || name == "virtual.pvd" || (starts("probe_") && ext == ".csv") ||
+         name == "summary.json" || name == "case.toml";
+}
+
+/// Creates the output directory; refuses one that holds files unless --overwrite, and
+/// then removes only tsph's own files. Returns false after printing one message.
+bool prepare_output(const Options& o) {
+  std::error_code ec;
+  if (fs::exists(o.out, ec) && fs::is_directory(o.out, ec) && !fs::is_empty(o.out, ec)) {
+    if (!o.overwrite) {
+      fmt::print(stderr,
+                 "tsph: error: out = '{}' is not empty: choose another directory with --out, or "
+                 "pass --overwrite to replace the files of a previous run there (other files "
+                 "are kept)\n",
+                 o.out);
+      return false;
+    }
+    for (const auto& entry : fs::directory_iterator(o.out, ec))
+      if (entry.is_regular_file() && is_tsph_output(entry.path())) fs::remove(entry.path(), ec);
+  }
+  if (!cli::prepare_output_directory("tsph", o.out)) return false;
+  const fs::path probe = fs::path(o.out) / ".tsph-write-test";
+  if (std::FILE* f = std::fopen(probe.c_str(), "wb")) {
+    std::fclose(f);
+    fs::remove(probe, ec);
+    return true;
+  }
+  fmt::print(stderr, "tsph: error: out = '{}' cannot be written ({}); choose a writable directory\n",
+             o.out, std::strerror(errno));
+  return false;
+}
+
+void print_overview(const CaseFile& c, const CaseOverview& v) {
+  fmt::print("case {} ({}), {}D\n", c.path, c.title, c.dimension);
+  fmt::print("  particles: {} real, {} virtual; dx = {} m, h = {} m ({}, alpha = {})\n",
+             v.real_particles, v.virtual_particles, v.spacing, v.smoothing_length,
+             to_string(c.kernel), c.alpha);
+  fmt::print("  material: E = {} Pa, nu = {}, rho = {} kg/m^3{}; p-wave speed {:.6g} m/s\n",
+             c.young_modulus, c.poisson_ratio, c.density,
+             c.dimension == 2 ? (c.plane_mode == PlaneMode::plane_strain ? ", plane strain" : ", plane stress") : "",
+             v.wave_speed);
+  fmt::print("  time: dt = {:.6g} s (CFL {:.3g}), end {} s: {} steps, {} output frames\n", v.dt,
+             v.dt * v.wave_speed / v.spacing, c.end_time, v.steps, v.frames);
+  for (const auto& [name, count] : v.boundary_particles)
+    fmt::print("  boundary '{}': {} real particles\n", name, count);
+  if (!c.exact.empty()) fmt::print("  exact solution: {}\n", c.exact);
+  fmt::print("  memory: about {:.1f} MiB (particle fields and neighbour lists)\n",
+             v.memory_bytes / (1024.0 * 1024.0));
+  fmt::print("  work: {:.3g} particle-steps\n",
+             static_cast<double>(v.real_particles) * static_cast<double>(v.steps));
+}
+
+int run(const Options& o, bool check_only) {
+  CaseFile c;
+  try {
+    c = load_case(o.case_path, o.overrides);
+  } catch (const CaseError& e) {
+    print_errors(e);
+    return cli::kExitBadInput;
+  }
+  if (o.threads >= 0) c.threads = o.threads;
+  set_thread_count(c.threads);
+  if (check_only) {
+    try {
+      print_overview(c, inspect_case(c));
+    } catch (const CaseError& e) {
+      print_errors(e);
+      return cli::kExitBadInput;
+    }
+    fmt::print("case is valid\n");
+    return cli::kExitOk;
+  }
+  Options resolved = o;
+  if (resolved.out.empty()) resolved.out = (fs::path("out") / fs::path(c.path).stem()).string();
+  if (!prepare_output(resolved)) return cli::kExitBadInput;
+  std::error_code ec;
+  fs::copy_file(c.path, fs::path(resolved.out) / "case.toml", fs::copy_options::overwrite_existing, ec);
+
+  RunOptions options;
+  options.out_dir = resolved.out;
+  options.quiet = o.quiet;
+  options.version = TSPH_VERSION;
+  options.overrides = o.overrides;
+  options.stop_requested = &stop_requested;
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  try {
+    if (!o.quiet) {
+      const CaseOverview v = inspect_case(c);
+      fmt::print("tsph {}: {} ({}D), {} real + {} virtual particles, {} steps of {:.4g} s, {} threads\n",
+                 TSPH_VERSION, c.path, c.dimension, v.real_particles, v.virtual_particles, v.steps,
+                 v.dt, thread_count());
+      std::fflush(stdout);
+    }
+    const RunReport r = run_case(c, options);
+    if (!o.quiet) {
+      fmt::print("{} at t = {:.6g} s after {} steps: {:.2f} s wall, {:.3e} particle-steps/s; output "
+                 "{:.2f} s in the background ({:.2f} s waited)\n",
+                 r.status == RunReport::Status::interrupted ? "interrupted"
+                 : r.status == RunReport::Status::at_rest   ? "at rest"
+                 : r.status == RunReport::Status::not_at_rest ? "NOT at rest"
+                                                             : "finished",
+                 r.time, r.steps, r.wall_seconds, r.particle_steps_per_second, r.output_busy_seconds,
+                 r.output_wait_seconds);
+      for (const auto& e : r.errors)
+        if (e.time == r.errors.back().time) fmt::print("  {} = {:.6g}\n", e.name, e.value);
+      fmt::print("output in {} (open particles.pvd in ParaView)\n", resolved.out);
+    }
+    switch (r.status) {
+      case RunReport::Status::finished:
+      case RunReport::Status::at_rest: return cli::kExitOk;
+      case RunReport::Status::not_at_rest:
+        fmt::print(stderr, "tsph: the run did not come to rest (see summary.json)\n");
+        return cli::kExitNotConverged;
+      case RunReport::Status::interrupted:
+        fmt::print(stderr, "tsph: interrupted; the last frame and summary.json are in {}\n", resolved.out);
+        return cli::kExitFailure;
+    }
+  } catch (const CaseError& e) {
+    print_errors(e);
+    return cli::kExitBadInput;
+  } catch (const RunDiverged& e) {
+    fmt::print(stderr, "tsph: diverged: {}\n", e.what());
+    return cli::kExitNotConverged;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "tsph: failed: {}\n", e.what());
+    return cli::kExitFailure;
+  }
+  return cli::kExitFailure;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"tsph: Taylor-SPH solid dynamics from a case file (keys: tools/CASES.md)"};
+  app.set_version_flag("--version", std::string("tsph ") + TSPH_VERSION);
+  app.require_subcommand(1);
+  Options o;
+  auto add_case_options = [&o](CLI::App* sub) {
+    sub->add_option("CASE", o.case_path, "case file (TOML)")->required();
+    sub->add_option("--set", o.overrides,
+                    "override a key of the case file, e.g. --set material.E=2e8 (repeatable)")
+        ->type_name("KEY=VALUE")
+        ->take_all()
+        ->allow_extra_args(false);
+    sub->add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default; overrides the case's threads)");
+  };
+  CLI::App* run_cmd = app.add_subcommand("run", "run a case and write VTU/PVD, probes and summary.json");
+  add_case_options(run_cmd);
+  run_cmd->add_option("--out", o.out, "output directory (default: out/<case name>)");
+  run_cmd->add_flag("--overwrite", o.overwrite,
+                    "reuse a non-empty output directory, replacing the files of a previous run");
+  run_cmd->add_flag("--quiet", o.quiet, "print nothing but errors");
+  CLI::App* check_cmd = app.add_subcommand("check", "validate a case and print it resolved, without running it");
+  add_case_options(check_cmd);
+  if (const auto stop = cli::parse(app, argc, argv)) return *stop;
+  return run(o, check_cmd->parsed());
+}
