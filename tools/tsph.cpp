@@ -1,6 +1,7 @@
 // tsph: runs a case file (TOML; key reference in tools/CASES.md).
 //
 //   tsph run CASE [--set key=value]... [--out DIR] [--overwrite] [--threads N] [--quiet]
+//            [--restart CHECKPOINT|DIR]
 //   tsph check CASE [--set key=value]...
 //   tsph --version
 //
@@ -43,6 +44,7 @@ struct Options {
   std::vector<std::string> overrides;
   std::string out;
   bool overwrite = false;
+  std::string restart;
   int threads = -1;
   bool quiet = false;
 };
@@ -58,7 +60,8 @@ bool is_tsph_output(const fs::path& p) {
   const std::string ext = p.extension().string();
   return ((starts("particles_") || starts("virtual_")) && (ext == ".vtu" || ext == ".tmp")) ||
          name == "particles.pvd" || name == "virtual.pvd" || (starts("probe_") && ext == ".csv") ||
-         name == "summary.json" || name == "case.toml";
+         name == "summary.json" || name == "case.toml" ||
+         (starts("checkpoint_") && (ext == ".bin" || ext == ".tmp"));
 }
 
 /// Creates the output directory; refuses one that holds files unless --overwrite, and
@@ -130,8 +133,31 @@ int run(const Options& o, bool check_only) {
     return cli::kExitOk;
   }
   Options resolved = o;
-  if (resolved.out.empty()) resolved.out = (fs::path("out") / fs::path(c.path).stem()).string();
-  if (!prepare_output(resolved)) return cli::kExitBadInput;
+  std::string checkpoint;
+  if (!o.restart.empty()) {
+    try {
+      checkpoint = resolve_checkpoint(o.restart);
+    } catch (const CaseError& e) {
+      print_errors(e);
+      return cli::kExitBadInput;
+    }
+    std::error_code ec;
+    if (!fs::is_regular_file(checkpoint, ec)) {
+      fmt::print(stderr, "tsph: error: restart = '{}' is invalid: no such checkpoint file or directory\n", o.restart);
+      return cli::kExitBadInput;
+    }
+  }
+  const std::string checkpoint_dir =
+      checkpoint.empty() ? "" : fs::absolute(fs::path(checkpoint)).parent_path().lexically_normal().string();
+  if (resolved.out.empty())
+    resolved.out = checkpoint.empty() ? (fs::path("out") / fs::path(c.path).stem()).string() : checkpoint_dir;
+  const bool continuing = !checkpoint.empty() &&
+                          fs::absolute(fs::path(resolved.out)).lexically_normal().string() == checkpoint_dir;
+  if (continuing) {
+    if (!o.quiet) fmt::print("continuing the run in {} from {}\n", resolved.out, checkpoint);
+  } else if (!prepare_output(resolved)) {
+    return cli::kExitBadInput;
+  }
   std::error_code ec;
   fs::copy_file(c.path, fs::path(resolved.out) / "case.toml", fs::copy_options::overwrite_existing, ec);
 
@@ -140,6 +166,7 @@ int run(const Options& o, bool check_only) {
   options.quiet = o.quiet;
   options.version = TSPH_VERSION;
   options.overrides = o.overrides;
+  options.restart = checkpoint;
   options.stop_requested = &stop_requested;
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -163,6 +190,7 @@ int run(const Options& o, bool check_only) {
                  r.output_wait_seconds);
       for (const auto& e : r.errors)
         if (e.time == r.errors.back().time) fmt::print("  {} = {:.6g}\n", e.name, e.value);
+      if (!r.last_checkpoint.empty()) fmt::print("checkpoint {}\n", r.last_checkpoint);
       fmt::print("output in {} (open particles.pvd in ParaView)\n", resolved.out);
     }
     switch (r.status) {
@@ -172,7 +200,10 @@ int run(const Options& o, bool check_only) {
         fmt::print(stderr, "tsph: the run did not come to rest (see summary.json)\n");
         return cli::kExitNotConverged;
       case RunReport::Status::interrupted:
-        fmt::print(stderr, "tsph: interrupted; the last frame and summary.json are in {}\n", resolved.out);
+        fmt::print(stderr,
+                   "tsph: interrupted; the last frame, summary.json and {} are in {} (continue with "
+                   "--restart {})\n",
+                   fs::path(r.last_checkpoint).filename().string(), resolved.out, resolved.out);
         return cli::kExitFailure;
     }
   } catch (const CaseError& e) {
@@ -210,6 +241,9 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--overwrite", o.overwrite,
                     "reuse a non-empty output directory, replacing the files of a previous run");
   run_cmd->add_flag("--quiet", o.quiet, "print nothing but errors");
+  run_cmd->add_option("--restart", o.restart,
+                      "continue from a checkpoint file, or the newest checkpoint_*.bin of a directory "
+                      "(output goes on in that directory unless --out is given)");
   CLI::App* check_cmd = app.add_subcommand("check", "validate a case and print it resolved, without running it");
   add_case_options(check_cmd);
   if (const auto stop = cli::parse(app, argc, argv)) return *stop;

@@ -584,6 +584,8 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     c.output_virtual = o.boolean("virtual").value_or(false);
     c.probe_every = o.integer("probe_every", false, "10", [](std::int64_t n) { return n >= 1; },
                               "must be >= 1 (steps)").value_or(1);
+    c.checkpoint_every = o.integer("checkpoint_every", false, "1000", [](std::int64_t n) { return n >= 0; },
+                                   "must be >= 0 (steps; 0: a checkpoint only when interrupted)").value_or(0);
     for (Table p : o.tables("probe")) {
       ProbeSpec s;
       s.name = p.text("name", true).value_or("");

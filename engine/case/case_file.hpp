@@ -106,6 +106,7 @@ struct CaseFile {
   bool output_virtual = false;
   std::vector<ProbeSpec> probes;
   std::int64_t probe_every = 1;
+  std::int64_t checkpoint_every = 0;  ///< steps; 0: only on interruption
 
   // [exact]
   std::string exact;  ///< "" | bar | cantilever

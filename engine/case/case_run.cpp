@@ -3,6 +3,7 @@
 #include "engine/bar_case.hpp"
 #include "engine/cantilever_case.hpp"
 #include "engine/lattice.hpp"
+#include "engine/output/checkpoint.hpp"
 #include "engine/output/progress.hpp"
 #include "engine/output/vtu_writer.hpp"
 #include "engine/parallel.hpp"
@@ -361,7 +362,7 @@ struct Probe {
 
 template <int Dim>
 std::vector<std::unique_ptr<Probe<Dim>>> open_probes(const CaseFile& c, const ParticleSet<Dim>& real,
-                                                     const fs::path& out) {
+                                                     const fs::path& out, std::optional<double> restart_time) {
   std::vector<std::unique_ptr<Probe<Dim>>> probes;
   for (const auto& s : c.probes) {
     auto p = std::make_unique<Probe<Dim>>();
@@ -387,6 +388,22 @@ std::vector<std::unique_ptr<Probe<Dim>>> open_probes(const CaseFile& c, const Pa
       }
     }
     const fs::path path = out / ("probe_" + s.name + ".csv");
+    if (restart_time && fs::exists(path)) {
+      // Continue the file: keep its header and the rows up to the checkpoint.
+      std::ifstream in(path);
+      std::string kept, line;
+      while (std::getline(in, line)) {
+        const bool row = !line.empty() && (std::isdigit(static_cast<unsigned char>(line[0])) || line[0] == '-');
+        if (row && std::stod(line) > *restart_time) break;
+        kept += line + "\n";
+      }
+      in.close();
+      p->file.open(path, std::ios::trunc);
+      p->file << kept;
+      if (!p->file) throw std::runtime_error("cannot write '" + path.string() + "'");
+      probes.push_back(std::move(p));
+      continue;
+    }
     p->file.open(path);
     if (!p->file) throw std::runtime_error("cannot write '" + path.string() + "'");
     const char* axes[] = {"x", "y", "z"};
@@ -436,7 +453,7 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
                           json_number(e.time), json_string(e.name), json_number(e.value));
   std::string text = fmt::format(
       "{{\n  \"program\": \"tsph\",\n  \"version\": {},\n  \"case\": {},\n  \"title\": {},\n"
-      "  \"overrides\": [{}],\n  \"status\": {},\n  \"message\": {},\n"
+      "  \"overrides\": [{}],\n  \"restart\": {},\n  \"last_checkpoint\": {},\n  \"status\": {},\n  \"message\": {},\n"
       "  \"resolved\": {{\"dimension\": {}, \"real_particles\": {}, \"virtual_particles\": {}, "
       "\"spacing\": {}, \"smoothing_length\": {}, \"alpha\": {}, \"kernel\": {}, \"interpolation\": {}, "
       "\"kinematics\": {}, \"E\": {}, \"nu\": {}, \"rho\": {}, \"plane\": {}, \"p_wave_speed\": {}, "
@@ -444,7 +461,9 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       "  \"time\": {},\n  \"steps\": {},\n  \"wall_seconds\": {},\n  \"particle_steps_per_second\": {},\n"
       "  \"output_frames\": {},\n  \"output_writer_seconds\": {},\n  \"output_wait_seconds\": {},\n"
       "  \"errors\": [{}\n  ]\n}}\n",
-      json_string(o.version), json_string(c.path), json_string(c.title), overrides, json_string(status),
+      json_string(o.version), json_string(c.path), json_string(c.title), overrides,
+      o.restart.empty() ? "null" : json_string(o.restart),
+      r.last_checkpoint.empty() ? "null" : json_string(r.last_checkpoint), json_string(status),
       json_string(message), Dim, r.real_particles, r.virtual_particles, json_number(c.spacing),
       json_number(b.settings.smoothing_length), json_number(c.alpha), json_string(std::string(to_string(c.kernel))),
       json_string(std::string(to_string(c.interpolation))), json_string(std::string(to_string(c.kinematics))),
@@ -465,13 +484,41 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   report.real_particles = b.real.size();
   report.virtual_particles = b.virtual_particles.size();
   report.dt = b.dt;
+  std::optional<output::Checkpoint<Dim>> checkpoint;
+  if (!o.restart.empty()) {
+    try {
+      checkpoint = output::read_checkpoint<Dim>(o.restart);
+    } catch (const std::runtime_error& e) {
+      throw CaseError({std::string("restart: ") + e.what()});
+    }
+    if (checkpoint->real.size() != b.real.size() || checkpoint->virtual_particles.size() != b.virtual_particles.size())
+      throw CaseError({o.restart + ": the checkpoint holds " + std::to_string(checkpoint->real.size()) + " real and " +
+                       std::to_string(checkpoint->virtual_particles.size()) + " virtual particles, the case " +
+                       std::to_string(b.real.size()) + " and " + std::to_string(b.virtual_particles.size()) +
+                       ": restart with the case file (and --set overrides) of the run that wrote it"});
+    for (std::size_t i = 0; i < b.real.size(); ++i)
+      if (checkpoint->real.boundary[i] != b.real.boundary[i])
+        throw CaseError({o.restart + ": the boundary conditions of the case differ from the checkpoint's: restart "
+                         "with the case file of the run that wrote it"});
+    b.real = std::move(checkpoint->real);
+    b.virtual_particles = std::move(checkpoint->virtual_particles);
+  }
   std::optional<TaylorSph<Dim>> solver;
   try {
     solver.emplace(std::move(b.real), std::move(b.virtual_particles), *b.material, b.settings, b.conditions);
   } catch (const std::invalid_argument& e) {
     throw CaseError({c.path + ": " + e.what()});
   }
-  auto probes = open_probes<Dim>(c, solver->real(), out);
+  std::int64_t step_offset = 0;  // steps before the restart
+  if (checkpoint) {
+    solver->set_time(checkpoint->time);
+    step_offset = checkpoint->steps;
+    report.frames = checkpoint->frames;
+    for (const auto& e : checkpoint->errors) report.errors.push_back({e.time, e.name, e.value});
+  }
+  auto step_count = [&] { return step_offset + solver->counters().steps; };
+  auto probes = open_probes<Dim>(c, solver->real(), out,
+                                 checkpoint ? std::optional<double>(checkpoint->time) : std::nullopt);
   std::optional<std::size_t> rest_index;
   for (const auto& p : probes)
     if (p->name == c.rest_probe) rest_index = p->index;
@@ -480,6 +527,34 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   output::BackgroundWriter writer;
   std::vector<output::PvdEntry> real_series, virtual_series;
   double last_frame_time = -1.0;
+  if (checkpoint) {
+    real_series = checkpoint->real_series;
+    virtual_series = checkpoint->virtual_series;
+    last_frame_time = real_series.empty() ? -1.0 : real_series.back().time;
+  }
+  std::vector<std::string> checkpoints;  // written by this run, newest last; two are kept
+  auto write_checkpoint = [&] {
+    writer.finish();  // the frames it lists are on disk first
+    output::Checkpoint<Dim> k;
+    k.real = solver->real();
+    k.virtual_particles = solver->virtual_particles();
+    k.time = solver->time();
+    k.steps = step_count();
+    k.frames = report.frames;
+    k.real_series = real_series;
+    k.virtual_series = virtual_series;
+    for (const auto& e : report.errors) k.errors.push_back({e.time, e.name, e.value});
+    const fs::path path = out / fmt::format("checkpoint_{:010d}.bin", k.steps);
+    output::write_checkpoint((path).string(), k);
+    for (auto& p : probes) p->file.flush();
+    if (checkpoints.empty() || checkpoints.back() != path.string()) checkpoints.push_back(path.string());
+    if (checkpoints.size() > 2) {
+      std::error_code ec;
+      fs::remove(checkpoints.front(), ec);
+      checkpoints.erase(checkpoints.begin());
+    }
+    report.last_checkpoint = path.string();
+  };
   auto errors_at = [&](double t) {
     const auto& r = solver->real();
     for (const auto& e : b.exact) {
@@ -536,10 +611,13 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   output::ProgressLine progress(o.progress, o.quiet, c.end_time, report.real_particles);
   const double dt = b.dt;
   std::size_t next_time = 0;
+  while (next_time < c.output_times.size() && solver->time() >= c.output_times[next_time] - 1e-9 * dt) ++next_time;
   std::string message;
   const auto start = std::chrono::steady_clock::now();
-  frame();
-  record_probes(probes, solver->real(), 0.0);
+  if (!checkpoint) {
+    frame();
+    record_probes(probes, solver->real(), 0.0);
+  }
   try {
     while (solver->time() < c.end_time - 1e-9 * dt) {
       const double target = next_time < c.output_times.size() ? c.output_times[next_time] : c.end_time;
@@ -547,7 +625,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
       const bool lands = remaining <= dt * (1.0 + 1e-9);
       solver->step(lands ? remaining : dt);
       if (lands) solver->set_time(target);
-      const std::int64_t step = solver->counters().steps;
+      const std::int64_t step = step_count();
       bool write = false;
       while (next_time < c.output_times.size() && solver->time() >= c.output_times[next_time] - 1e-9 * dt) {
         ++next_time;
@@ -573,6 +651,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
         }
       }
       if (write) frame();
+      if (c.checkpoint_every > 0 && step % c.checkpoint_every == 0) write_checkpoint();
       progress.update(step, solver->time());
       if (o.stop_requested && *o.stop_requested) {
         report.status = RunReport::Status::interrupted;
@@ -583,7 +662,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   } catch (const std::runtime_error& e) {
     message = e.what();
     report.time = solver->time();
-    report.steps = solver->counters().steps;
+    report.steps = step_count();
     writer.finish();
     write_summary(out, c, o, report, b, "diverged", message);
     throw RunDiverged(message);
@@ -597,14 +676,16 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     record_probes(probes, solver->real(), solver->time());
     frame();
   }
-  progress.finish(solver->counters().steps, solver->time());
+  if (c.checkpoint_every > 0 || report.status == RunReport::Status::interrupted) write_checkpoint();
+  progress.finish(step_count(), solver->time());
   writer.finish();
   const auto stop = std::chrono::steady_clock::now();
   report.wall_seconds = std::chrono::duration<double>(stop - start).count();
   report.time = solver->time();
-  report.steps = solver->counters().steps;
+  report.steps = step_count();
   report.particle_steps_per_second = static_cast<double>(report.real_particles) *
-                                     static_cast<double>(report.steps) / std::max(report.wall_seconds, 1e-12);
+                                     static_cast<double>(solver->counters().steps) /
+                                     std::max(report.wall_seconds, 1e-12);
   report.output_busy_seconds = writer.busy_seconds();
   report.output_wait_seconds = writer.waited_seconds();
   for (auto& p : probes) p->file.close();
@@ -621,6 +702,22 @@ CaseOverview inspect_case(const CaseFile& c) {
     case 3: return inspect<3>(c);
   }
   throw CaseError({c.path + ": dimension must be 1, 2 or 3"});
+}
+
+std::string resolve_checkpoint(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_directory(path, ec)) return path;
+  std::string newest;
+  for (const auto& entry : fs::directory_iterator(path, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("checkpoint_", 0) == 0 && entry.path().extension() == ".bin" &&
+        (newest.empty() || entry.path().string() > newest))
+      newest = entry.path().string();
+  }
+  if (newest.empty())
+    throw CaseError({path + ": no checkpoint_*.bin in this directory: give a checkpoint file, or set "
+                     "output.checkpoint_every in the case"});
+  return newest;
 }
 
 RunReport run_case(const CaseFile& c, const RunOptions& options) {

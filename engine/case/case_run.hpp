@@ -37,6 +37,8 @@ struct RunOptions {
   std::FILE* progress = stdout;
   std::string version;
   std::vector<std::string> overrides;
+  /// A checkpoint file to continue from (empty: start at t = 0).
+  std::string restart;
   /// Set by a signal handler: the run stops after the current step, writing its output.
   const volatile std::sig_atomic_t* stop_requested = nullptr;
 };
@@ -56,12 +58,16 @@ struct RunReport {
   double wall_seconds = 0.0, particle_steps_per_second = 0.0;
   double output_busy_seconds = 0.0, output_wait_seconds = 0.0;
   std::size_t real_particles = 0, virtual_particles = 0, frames = 0;
+  std::string last_checkpoint;  ///< empty if none was written
   std::vector<ErrorRecord> errors;
 };
 
 /// Builds the case without stepping it. Throws CaseError (bad geometry, a region that
 /// selects nothing, a malformed particle file).
 CaseOverview inspect_case(const CaseFile& c);
+
+/// The newest checkpoint_*.bin in a directory, or the path itself if it is a file.
+std::string resolve_checkpoint(const std::string& path);
 
 /// Runs the case. The output directory must exist. Throws CaseError for bad input
 /// found while building, RunDiverged, or std::runtime_error for I/O failures.
