@@ -42,6 +42,9 @@ def main():
         assert np.allclose(d["density"], summary["resolved"]["rho"], rtol=0.05)
         if time == 0.0:
             assert np.all(d["displacement"] == 0.0)
+            assert np.array_equal(d["initial_position"], g.points)
+        if summary["resolved"]["kinematics"] == "small_strain":
+            assert np.array_equal(d["initial_position"], g.points), "small strain: particles stay"
         if exact_velocity and time > 0.0:
             err = np.linalg.norm(d["velocity"][:, 0] - d["exact_velocity_x"])
             ref = np.linalg.norm(d["exact_velocity_x"])

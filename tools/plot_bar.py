@@ -49,7 +49,7 @@ def main():
                 continue
             g = tsph_vtu.read_vtu(path)
             d = g.point_data
-            x = g.points[:, 0] - d["displacement"][:, 0]
+            x = d["initial_position"][:, 0]
             order = np.argsort(x)
             value = d[field][:, 0] if d[field].ndim > 1 else d[field]
             if n == 0:

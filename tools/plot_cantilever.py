@@ -29,7 +29,7 @@ def read_tsph_run(run):
     _, last = tsph_vtu.read_pvd(os.path.join(run, "particles.pvd"))[-1]
     grid = tsph_vtu.read_vtu(last)
     d = grid.point_data
-    x0 = grid.points - d["displacement"]
+    x0 = d["initial_position"]
     dx = s["resolved"]["spacing"]
     centre = 0.5 * (x0[:, 1].min() + x0[:, 1].max())
     on_axis = np.abs(x0[:, 1] - centre) < 1e-6 * dx

@@ -29,7 +29,7 @@ def main():
         parser.error(f"no probe_*.csv in {args.run}: add [[output.probe]] entries to the case")
     fig, axes = plt.subplots(len(files), 3, figsize=(13, 3.2 * len(files)), squeeze=False)
     for row, path in enumerate(files):
-        data = np.genfromtxt(path, delimiter=",", names=True, comments="#")
+        data = np.genfromtxt(path, delimiter=",", names=True)
         name = os.path.basename(path)[len("probe_"):-len(".csv")]
         axes_names = [a for a in "xyz" if f"u{a}" in data.dtype.names]
         t = data["t"]

@@ -326,7 +326,10 @@ output::VtuFrame snapshot(const ParticleSet<Dim>& p, const CaseFile& c, const Bu
     f.arrays.push_back(std::move(a));
   };
   if (c.has_field("velocity")) vector_field("velocity", p.velocity);
-  if (c.has_field("displacement")) vector_field("displacement", p.displacement);
+  if (c.has_field("displacement")) {
+    vector_field("displacement", p.displacement);
+    vector_field("initial_position", p.initial_position);  // small strain: the points themselves
+  }
   if (c.has_field("stress") || c.has_field("von_mises")) {
     output::VtuArray stress{"stress", 6, std::vector<double>(6 * n), {}, false};
     output::VtuArray mises{"von_mises", 1, std::vector<double>(n), {}, false};
@@ -411,7 +414,7 @@ std::vector<std::unique_ptr<Probe<Dim>>> open_probes(const CaseFile& c, const Pa
     for (const char* prefix : {"x0_", "u", "v"})
       for (int d = 0; d < Dim; ++d) header += std::string(",") + prefix + axes[d];
     header += ",sxx,syy,szz,sxy,syz,sxz,von_mises\n";
-    p->file << "# probe " << s.name << ": real particle id " << real.id[p->index] << "\n" << header;
+    p->file << header;  // the x0 columns name the particle
     probes.push_back(std::move(p));
   }
   return probes;
