@@ -97,10 +97,10 @@ TEST_F(CaseFileTest, ShippedCasesResolveToTheSeedSettings) {
   const CaseOverview c = inspect_case(beam);
   EXPECT_EQ(c.real_particles, 101u * 11u);
   EXPECT_EQ(c.virtual_particles, 100u * 10u);
-  ASSERT_EQ(c.boundary_particles.size(), 4u);
-  EXPECT_EQ(c.boundary_particles[3].second, 11u);  // the clamp: the whole face x = 0
-  EXPECT_EQ(c.boundary_particles[2].second, 11u);  // the tip face, corners included
-  EXPECT_EQ(c.boundary_particles[0].second, 99u);  // top, less the two corners
+  ASSERT_EQ(c.boundary_particles.size(), 3u);
+  EXPECT_EQ(c.boundary_particles[2].second, 11u);  // the clamp: the whole face x = 0
+  EXPECT_EQ(c.boundary_particles[1].second, 11u);  // the tip face, corners included
+  EXPECT_EQ(c.boundary_particles[0].second, 198u); // top and bottom, less the four corners
 }
 
 TEST_F(CaseFileTest, OverridesReplaceScalarsAndAreValidated) {
@@ -109,8 +109,8 @@ TEST_F(CaseFileTest, OverridesReplaceScalarsAndAreValidated) {
   EXPECT_DOUBLE_EQ(c.young_modulus, 2e8);
   EXPECT_EQ(c.plane_mode, PlaneMode::plane_strain);
   EXPECT_EQ(c.kernel, KernelKind::wendland_c2);
-  const CaseFile d = load_case(path, {"boundary.2.value=[0.0, 500.0]"});
-  EXPECT_DOUBLE_EQ(d.boundaries[2].value[1], 500.0);
+  const CaseFile d = load_case(path, {"boundary.1.value=[0.0, 500.0]"});
+  EXPECT_DOUBLE_EQ(d.boundaries[1].value[1], 500.0);
   auto message = [&](const std::string& o) {
     try {
       load_case(path, {o});

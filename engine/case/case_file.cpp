@@ -58,6 +58,8 @@ std::string join(const std::vector<std::string>& items) {
   return out;
 }
 
+/// The candidate closest to `word` by edit distance, or "" if none is close (at most
+/// half the word's length, and at least 2, edits away).
 std::string nearest(const std::string& word, const std::vector<std::string>& candidates) {
   std::string best;
   std::size_t best_distance = std::string::npos;
@@ -68,7 +70,11 @@ std::string nearest(const std::string& word, const std::vector<std::string>& can
       best = c;
     }
   }
-  return best;
+  return best_distance <= std::max<std::size_t>(2, word.size() / 2) ? best : "";
+}
+
+std::string did_you_mean(const std::string& suggestion, const std::string& quote = "") {
+  return suggestion.empty() ? "" : " (did you mean " + quote + suggestion + quote + "?)";
 }
 
 std::string show(const toml::node& node) {
@@ -185,9 +191,7 @@ class Table {
     }
     std::string value = *node->value<std::string>();
     if (!choices.empty() && std::find(choices.begin(), choices.end(), value) == choices.end()) {
-      context_.invalid(node, path(key),
-                       "must be one of: " + join(choices) + " (did you mean '" +
-                           nearest(value, choices) + "'?)");
+      context_.invalid(node, path(key), "must be one of: " + join(choices) + did_you_mean(nearest(value, choices), "'"));
       return std::nullopt;
     }
     return value;
@@ -238,7 +242,7 @@ class Table {
         if (std::find(choices.begin(), choices.end(), s->get()) == choices.end()) {
           context_.errors.push_back(context_.where(&item) + path(key) + " entry '" + s->get() +
                                     "' is invalid: must be one of: " + join(choices) +
-                                    " (did you mean '" + nearest(s->get(), choices) + "'?)");
+                                    did_you_mean(nearest(s->get(), choices), "'"));
           return std::nullopt;
         }
         values.push_back(s->get());
@@ -292,7 +296,8 @@ class Table {
                                           std::to_string(key.source().begin.column) + ": "
                                     : context_.where(&node);
       context_.errors.push_back(where + "unknown key " + path(name) +
-                                ": did you mean " + path(suggestion) + "? (valid keys" +
+                                (suggestion.empty() ? std::string() : ": did you mean " + path(suggestion) + "?") +
+                                " (valid keys" +
                                 (prefix_.empty() ? "" : " in [" + prefix_ + "]") + ": " +
                                 join(known_) + ")");
     }
@@ -531,7 +536,14 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     BoundarySpec s;
     s.name = b.text("name", true).value_or("");
     s.type = b.text("type", true, {"fixed", "free", "velocity", "traction"}).value_or("");
-    s.region = read_region(b.table("region", true), dim);
+    if (b.has("region") && b.get("region", false, "")->is_array()) {
+      // A list of regions: their union.
+      for (Table r : b.tables("region")) s.regions.push_back(read_region(r, dim));
+      if (s.regions.empty())
+        context.invalid(b.get("region", false, ""), b.path("region"), "must hold at least one region");
+    } else {
+      s.regions.push_back(read_region(b.table("region", true), dim));
+    }
     if (s.type == "velocity" || s.type == "traction") {
       s.value = b.numbers("value", true, dim, s.type == "velocity" ? "m/s" : "Pa, sigma . n")
                     .value_or(std::vector<double>(dim, 0.0));
@@ -543,7 +555,9 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     } else {
       s.value.assign(dim, 0.0);
     }
-    if (s.region.type == "group" && c.particle_file.empty())
+    const bool by_group = std::any_of(s.regions.begin(), s.regions.end(),
+                                      [](const RegionSpec& r) { return r.type == "group"; });
+    if (by_group && c.particle_file.empty())
       context.invalid(b.self(), b.path("region.type"), "'group' needs geometry.particle_file (groups are a column of it)");
     b.finish();
     c.boundaries.push_back(std::move(s));

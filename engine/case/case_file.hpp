@@ -47,7 +47,7 @@ struct RegionSpec {
 struct BoundarySpec {
   std::string name;
   std::string type;  ///< fixed | free | velocity | traction
-  RegionSpec region;
+  std::vector<RegionSpec> regions;  ///< their union
   std::vector<double> value;  ///< Dim components (velocity in m/s, traction in Pa)
   TimeFunctionSpec time;
   std::string profile = "uniform";  ///< uniform | cantilever_shear

@@ -154,20 +154,24 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
       b.conditions.push_back(BoundaryCondition<Dim>::velocity(components, s.name, profile));
     else
       b.conditions.push_back(BoundaryCondition<Dim>::traction(components, s.name, profile));
-    Region<Dim> region;
-    if (s.region.type == "box")
-      region = Region<Dim>::box(s.name, to_vector<Dim>(s.region.lower), to_vector<Dim>(s.region.upper));
-    else if (s.region.type == "half_space")
-      region = Region<Dim>::half_space(s.name, to_vector<Dim>(s.region.point), to_vector<Dim>(s.region.normal));
-    else if (s.region.type == "group")
-      region = Region<Dim>::of_group(s.name, static_cast<std::int32_t>(s.region.group));
-    else  // all: a half-space that holds every particle
-      region = Region<Dim>::half_space(s.name, Vec::Constant(-1e300), Vec::Unit(0));
-    try {
-      assign_boundary(b.real, region, static_cast<std::int32_t>(k), tolerance);
-    } catch (const std::invalid_argument& e) {
-      errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + s.name + "': " + e.what());
+    std::string missed;
+    for (const RegionSpec& spec : s.regions) {
+      Region<Dim> region;
+      if (spec.type == "box")
+        region = Region<Dim>::box(s.name, to_vector<Dim>(spec.lower), to_vector<Dim>(spec.upper));
+      else if (spec.type == "half_space")
+        region = Region<Dim>::half_space(s.name, to_vector<Dim>(spec.point), to_vector<Dim>(spec.normal));
+      else if (spec.type == "group")
+        region = Region<Dim>::of_group(s.name, static_cast<std::int32_t>(spec.group));
+      else  // all: a half-space that holds every particle
+        region = Region<Dim>::half_space(s.name, Vec::Constant(-1e300), Vec::Unit(0));
+      try {
+        assign_boundary(b.real, region, static_cast<std::int32_t>(k), tolerance);
+      } catch (const std::invalid_argument& e) {
+        missed = e.what();
+      }
     }
+    if (!missed.empty()) errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + s.name + "': " + missed);
   }
   if (!errors.empty()) throw CaseError(errors);
   for (std::size_t k = 0; k < c.boundaries.size(); ++k)

@@ -142,7 +142,7 @@ void write_checkpoint(const std::string& path, const Checkpoint<Dim>& c) {
     b.put_string(e.name);
     b.put(e.value);
   }
-  write_text_file(path, std::string(b.data().begin(), b.data().end()));
+  write_text_file(path, std::string(b.data().begin(), b.data().end()), /*durable=*/true);
 }
 
 /// Reads a checkpoint; throws std::runtime_error naming the file if it is not one,

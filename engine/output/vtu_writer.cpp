@@ -39,8 +39,10 @@ class AtomicFile {
       throw std::runtime_error("cannot write '" + temporary_ + "': " + std::strerror(errno));
   }
   void write(const std::string& text) { write(text.data(), text.size()); }
-  void commit() {
-    if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0)
+  /// `durable`: fsync before the rename (checkpoints); frames only need the rename,
+  /// which already keeps readers from seeing half a file.
+  void commit(bool durable) {
+    if (std::fflush(file_) != 0 || (durable && ::fsync(::fileno(file_)) != 0))
       throw std::runtime_error("cannot write '" + temporary_ + "': " + std::strerror(errno));
     std::fclose(file_);
     file_ = nullptr;
@@ -128,7 +130,7 @@ void write_vtu(const std::string& path, const VtuFrame& frame) {
   const std::vector<std::uint8_t> types(n, 1);  // VTK_VERTEX
   block(types.data(), n);
   file.write("\n  </AppendedData>\n</VTKFile>\n");
-  file.commit();
+  file.commit(false);
 }
 
 void write_pvd(const std::string& path, const std::vector<PvdEntry>& entries) {
@@ -145,10 +147,10 @@ void write_pvd(const std::string& path, const std::vector<PvdEntry>& entries) {
   write_text_file(path, text);
 }
 
-void write_text_file(const std::string& path, const std::string& text) {
+void write_text_file(const std::string& path, const std::string& text, bool durable) {
   AtomicFile file(path);
   file.write(text);
-  file.commit();
+  file.commit(durable);
 }
 
 BackgroundWriter::~BackgroundWriter() {

@@ -2,7 +2,7 @@
 // appended data in raw encoding (each block: a UInt64 byte count, then the values,
 // little endian), one vertex cell per particle, and a .pvd collection listing the
 // frames with their times. Files are written to a temporary name and renamed, so a
-// reader never sees half a file.
+// reader never sees half a file (frames are not fsynced: that is for checkpoints).
 #pragma once
 
 #include <cstddef>
@@ -57,7 +57,8 @@ class BackgroundWriter {
   double busy_seconds_ = 0.0, waited_seconds_ = 0.0;
 };
 
-/// Writes `text` to `path` atomically (temporary file, flush, rename).
-void write_text_file(const std::string& path, const std::string& text);
+/// Writes `text` to `path` atomically (temporary file, flush, rename), with an fsync
+/// before the rename if `durable`.
+void write_text_file(const std::string& path, const std::string& text, bool durable = false);
 
 }  // namespace tsph::output
