@@ -4,6 +4,9 @@
 #include "engine/bar_case.hpp"
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
+#include "engine/lattice.hpp"
+#include "engine/output/checkpoint.hpp"
+#include "engine/output/progress.hpp"
 #include "engine/parallel.hpp"
 
 #include <gtest/gtest.h>
@@ -257,6 +260,62 @@ TEST_F(CaseFileTest, BarCaseFileReproducesRunBar) {
   EXPECT_TRUE(fs::exists(directory_ / "particles_000002.vtu"));
   EXPECT_TRUE(fs::exists(directory_ / "summary.json"));
   EXPECT_TRUE(fs::exists(directory_ / "probe_middle.csv"));
+}
+
+TEST(ProgressLine, ShowsStepTimePercentEtaAndRate) {
+  // Half way after 10 s: 10 s left; 100 particles x 50 steps / 10 s = 500 particle-steps/s.
+  const std::string line = output::ProgressLine::format(50, 0.5, 1.0, 10.0, 100);
+  EXPECT_NE(line.find("step       50"), std::string::npos) << line;
+  EXPECT_NE(line.find("t = 5.000000e-01 s"), std::string::npos) << line;
+  EXPECT_NE(line.find(" 50.0 %"), std::string::npos) << line;
+  EXPECT_NE(line.find("ETA     10 s"), std::string::npos) << line;
+  EXPECT_NE(line.find("5.000e+02 particle-steps/s"), std::string::npos) << line;
+  // 1 % after 72 s: 7128 s left.
+  EXPECT_NE(output::ProgressLine::format(1, 0.01, 1.0, 72.0, 1).find("ETA    2.0 h"), std::string::npos);
+}
+
+TEST_F(CaseFileTest, CheckpointRoundTripIsExactAndDamageIsRefused) {
+  LatticeBox<2> box;
+  box.spacing = 0.1;
+  box.node_count = {4, 3};
+  output::Checkpoint<2> c;
+  c.real = make_real_lattice(box, 1000.0);
+  c.virtual_particles = make_virtual_lattice(box, 1000.0);
+  for (std::size_t i = 0; i < c.real.size(); ++i) {
+    c.real.velocity[1][i] = std::sin(static_cast<double>(i)) / 3.0;  // not round numbers
+    c.real.stress[2][i] = std::exp(static_cast<double>(i) * 0.37);
+    c.real.boundary[i] = static_cast<std::int32_t>(i % 3) - 1;
+    c.real.group[i] = 7;
+  }
+  c.time = 0.1 + 0.2;
+  c.steps = 12345;
+  c.frames = 3;
+  c.real_series = {{0.0, "particles_000000.vtu"}, {c.time, "particles_000001.vtu"}};
+  c.errors = {{c.time, "tip_error_percent", 1.0 / 3.0}};
+  const std::string path = (directory_ / "state.bin").string();
+  output::write_checkpoint(path, c);
+  const auto back = output::read_checkpoint<2>(path);
+  EXPECT_EQ(back.time, c.time);
+  EXPECT_EQ(back.steps, c.steps);
+  EXPECT_EQ(back.frames, c.frames);
+  ASSERT_EQ(back.real.size(), c.real.size());
+  ASSERT_EQ(back.virtual_particles.size(), c.virtual_particles.size());
+  EXPECT_EQ(back.real.velocity[1], c.real.velocity[1]);
+  EXPECT_EQ(back.real.stress[2], c.real.stress[2]);
+  EXPECT_EQ(back.real.boundary, c.real.boundary);
+  EXPECT_EQ(back.real.group, c.real.group);
+  EXPECT_EQ(back.real.initial_position[0], c.real.initial_position[0]);
+  EXPECT_EQ(back.virtual_particles.volume, c.virtual_particles.volume);
+  ASSERT_EQ(back.real_series.size(), 2u);
+  EXPECT_EQ(back.real_series[1].file, "particles_000001.vtu");
+  ASSERT_EQ(back.errors.size(), 1u);
+  EXPECT_EQ(back.errors[0].value, 1.0 / 3.0);
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  // Another dimension, a truncated file, a file that is not a checkpoint.
+  EXPECT_THROW(output::read_checkpoint<3>(path), std::runtime_error);
+  fs::resize_file(path, fs::file_size(path) - 5);
+  EXPECT_THROW(output::read_checkpoint<2>(path), std::runtime_error);
+  EXPECT_THROW(output::read_checkpoint<2>(write("text.bin", "hello")), std::runtime_error);
 }
 
 }  // namespace

@@ -233,7 +233,8 @@ int main(int argc, char** argv) {
         ->type_name("KEY=VALUE")
         ->take_all()
         ->allow_extra_args(false);
-    sub->add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default; overrides the case's threads)");
+    sub->add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default; overrides the case's threads)")
+        ->check(CLI::NonNegativeNumber);
   };
   CLI::App* run_cmd = app.add_subcommand("run", "run a case and write VTU/PVD, probes and summary.json");
   add_case_options(run_cmd);

@@ -365,6 +365,7 @@ struct Probe {
   std::string name;
   std::size_t index = 0;
   std::ofstream file;
+  double last_time = -1.0;
 };
 
 template <int Dim>
@@ -427,6 +428,8 @@ std::vector<std::unique_ptr<Probe<Dim>>> open_probes(const CaseFile& c, const Pa
 template <int Dim>
 void record_probes(std::vector<std::unique_ptr<Probe<Dim>>>& probes, const ParticleSet<Dim>& r, double t) {
   for (auto& p : probes) {
+    if (p->last_time == t) continue;  // already recorded at this time
+    p->last_time = t;
     const std::size_t i = p->index;
     std::string line = fmt::format("{:.10e}", t);
     for (int d = 0; d < Dim; ++d) line += fmt::format(",{:.10e}", r.initial_position[d][i]);
