@@ -2,6 +2,7 @@
 // a message naming the file, line, key, value and the fix; overrides work; the bar
 // case file reproduces run_bar (the same physics through the generic path).
 #include "engine/bar_case.hpp"
+#include "engine/cantilever_case.hpp"
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/lattice.hpp"
@@ -260,6 +261,33 @@ TEST_F(CaseFileTest, BarCaseFileReproducesRunBar) {
   EXPECT_TRUE(fs::exists(directory_ / "particles_000002.vtu"));
   EXPECT_TRUE(fs::exists(directory_ / "summary.json"));
   EXPECT_TRUE(fs::exists(directory_ / "probe_middle.csv"));
+}
+
+// The 2D cantilever case file against run_cantilever (tsph-cantilever): the same
+// particles, conditions, parabolic tip shear, ramp, damping and hourglass filter, over
+// the first 233 steps (the last step of the case lands on time.end, so the time
+// differs by round-off: equal to 1e-9, not bitwise).
+TEST_F(CaseFileTest, CantileverCaseFileReproducesRunCantilever) {
+  set_thread_count(1);
+  CantileverSettings<2> s;  // seed 4.2 defaults: 101 x 11, plane stress, P = 1000 N
+  const double dt = s.cfl * s.spacing() /
+                    LinearElastic<2>(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode).p_wave_speed(s.density);
+  s.end_time = 232.5 * dt;  // run_cantilever steps while t < end: 233 steps
+  const CantileverResult reference = run_cantilever(s);
+  ASSERT_EQ(reference.steps, 233);
+  char end[64];
+  std::snprintf(end, sizeof end, "time.end=%.17g", 233 * dt);
+  const CaseFile c = load_case((kCases / "cantilever_2d.toml").string(), {end, "damping.rest_velocity=0"});
+  RunOptions options;
+  options.out_dir = directory_.string();
+  options.quiet = true;
+  const RunReport r = run_case(c, options);
+  EXPECT_EQ(r.steps, 233);
+  double tip = std::nan("");
+  for (const auto& e : r.errors)
+    if (e.name == "tip_displacement_y" && e.time == r.time) tip = e.value;
+  ASSERT_GT(std::abs(reference.tip_deflection), 1e-9);  // the load has moved the tip
+  EXPECT_NEAR(tip, reference.tip_deflection, 1e-9 * std::abs(reference.tip_deflection));
 }
 
 TEST(ProgressLine, ShowsStepTimePercentEtaAndRate) {
