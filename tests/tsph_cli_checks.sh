@@ -93,6 +93,11 @@ fi
 [ -f "$work/beam/virtual.pvd" ] || { echo "FAIL: no virtual.pvd"; failures=$((failures + 1)); }
 # Not at rest by the end time: exit status 3.
 expect 3 "did not come to rest" run "$cases/cantilever_2d.toml" --quiet --out "$work/rest" --set time.end=0.002
+# Diverged (a body force that overflows the stress): exit status 3, summary marked.
+expect 3 "diverged: solver: the solution diverged at step" run "$cases/bar.toml" --quiet --out "$work/diverged" \
+  --set 'method.body_force=[1e308]'
+grep -q '"status": "diverged"' "$work/diverged/summary.json" 2>/dev/null ||
+  { echo "FAIL: summary.json of a diverged run"; failures=$((failures + 1)); }
 expect 2 "time\.dt = 0\.0002 is invalid: exceeds the stability limit" check "$work/dt.toml"
 
 echo "tsph_cli_checks: $checks checks, $failures failures"

@@ -628,12 +628,21 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     frame();
     record_probes(probes, solver->real(), 0.0);
   }
-  try {
+  {
     while (solver->time() < c.end_time - 1e-9 * dt) {
       const double target = next_time < c.output_times.size() ? c.output_times[next_time] : c.end_time;
       const double remaining = target - solver->time();
       const bool lands = remaining <= dt * (1.0 + 1e-9);
-      solver->step(lands ? remaining : dt);
+      try {
+        solver->step(lands ? remaining : dt);
+      } catch (const std::runtime_error& e) {  // the stepper's non-finite check (I/O errors pass)
+        message = e.what();
+        report.time = solver->time();
+        report.steps = step_count();
+        writer.finish();
+        write_summary(out, c, o, report, b, "diverged", message);
+        throw RunDiverged(message);
+      }
       if (lands) solver->set_time(target);
       const std::int64_t step = step_count();
       bool write = false;
@@ -669,13 +678,6 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
         break;
       }
     }
-  } catch (const std::runtime_error& e) {
-    message = e.what();
-    report.time = solver->time();
-    report.steps = step_count();
-    writer.finish();
-    write_summary(out, c, o, report, b, "diverged", message);
-    throw RunDiverged(message);
   }
   if (report.status == RunReport::Status::finished && c.rest_velocity > 0.0) {
     report.status = RunReport::Status::not_at_rest;
