@@ -175,6 +175,47 @@ TEST_F(CaseFileTest, WrongTypeOutOfRangeAndMissingKeys) {
   EXPECT_NE(e.find("method.kinematics = 3 is invalid: must be one of (in quotes): small_strain"), std::string::npos) << e;
 }
 
+// A box list is the union of its boxes on one lattice: two halves give the particles
+// of the whole box; an L gives its area; boxes off the common lattice are refused.
+TEST_F(CaseFileTest, BoxListsAreUnionsOnOneLattice) {
+  auto with_boxes = [&](const std::string& boxes) {
+    std::string text = kValid2d;
+    const std::string box = "box = { lower = [0.0, 0.0], upper = [1.0, 0.4] }";
+    text.replace(text.find(box), box.size(), "box = [" + boxes + "]");
+    return write("boxes.toml", text);
+  };
+  const CaseOverview whole = inspect_case(load_case(write("one.toml", kValid2d)));
+  EXPECT_EQ(whole.real_particles, 11u * 5u);
+  EXPECT_NEAR(whole.real_volume, 0.4, 1e-12);
+  const CaseOverview halves = inspect_case(load_case(with_boxes(
+      "{ lower = [0.0, 0.0], upper = [0.5, 0.4] }, { lower = [0.5, 0.0], upper = [1.0, 0.4] }")));
+  EXPECT_EQ(halves.real_particles, whole.real_particles);
+  EXPECT_EQ(halves.virtual_particles, whole.virtual_particles);
+  EXPECT_NEAR(halves.real_volume, whole.real_volume, 1e-12);
+  // An L: [0, 1] x [0, 0.4] and [0, 0.4] x [0.4, 1.0] (overlapping rows counted once).
+  const CaseOverview l_shape = inspect_case(load_case(with_boxes(
+      "{ lower = [0.0, 0.0], upper = [1.0, 0.4] }, { lower = [0.0, 0.3], upper = [0.4, 1.0] }")));
+  EXPECT_EQ(l_shape.real_particles, 11u * 5u + 5u * 6u);
+  EXPECT_EQ(l_shape.virtual_particles, 10u * 4u + 4u * 6u);
+  EXPECT_NEAR(l_shape.real_volume, 0.4 + 0.4 * 0.6, 1e-12);
+  const std::string e = error_of(
+      R"(dimension = 2
+[geometry]
+spacing = 0.1
+box = [{ lower = [0.0, 0.0], upper = [1.0, 0.4] }, { lower = [0.05, 0.4], upper = [0.45, 0.8] }]
+[material]
+E = 1e6
+nu = 0.25
+rho = 1000.0
+[method]
+alpha = 0.6
+[time]
+end = 1e-3
+cfl = 0.5
+)");
+  EXPECT_NE(e.find("geometry.box[1].lower is invalid: the boxes must share one lattice"), std::string::npos) << e;
+}
+
 TEST_F(CaseFileTest, RegionSelectingNothingIsRefusedWhenBuilding) {
   std::string text = kValid2d;
   const std::string plane = "point = [0.0, 0.0], normal = [-1.0, 0.0]";

@@ -94,9 +94,10 @@ bool prepare_output(const Options& o) {
 
 void print_overview(const CaseFile& c, const CaseOverview& v) {
   fmt::print("case {} ({}), {}D\n", c.path, c.title, c.dimension);
-  fmt::print("  particles: {} real, {} virtual; dx = {} m, h = {} m ({}, alpha = {})\n",
+  fmt::print("  particles: {} real, {} virtual; dx = {} m, h = {} m ({}, alpha = {}); {} {:.6g} m^{}\n",
              v.real_particles, v.virtual_particles, v.spacing, v.smoothing_length,
-             to_string(c.kernel), c.alpha);
+             to_string(c.kernel), c.alpha, c.dimension == 1 ? "length" : c.dimension == 2 ? "area" : "volume",
+             v.real_volume, c.dimension);
   fmt::print("  material: E = {} Pa, nu = {}, rho = {} kg/m^3{}; p-wave speed {:.6g} m/s\n",
              c.young_modulus, c.poisson_ratio, c.density,
              c.dimension == 2 ? (c.plane_mode == PlaneMode::plane_strain ? ", plane strain" : ", plane stress") : "",

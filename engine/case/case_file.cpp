@@ -463,13 +463,12 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
                                "geometry needs exactly one of box = { lower = [...], upper = [...] } "
                                "or particle_file = \"particles.csv\"" +
                                (has_box ? " (both are given)" : ""));
-    Table box = g.table("box", false);
-    if (box.present()) {
-      c.box_lower = box.numbers("lower", true, dim, "one per axis").value_or(std::vector<double>{});
-      c.box_upper = box.numbers("upper", true, dim, "one per axis").value_or(std::vector<double>{});
-      if (c.box_lower.size() == dim && c.box_upper.size() == dim && c.spacing > 0.0)
+    auto read_box = [&](Table box) {
+      auto lower = box.numbers("lower", true, dim, "one per axis").value_or(std::vector<double>{});
+      auto upper = box.numbers("upper", true, dim, "one per axis").value_or(std::vector<double>{});
+      if (lower.size() == dim && upper.size() == dim && c.spacing > 0.0)
         for (std::size_t d = 0; d < dim; ++d) {
-          const double cells = (c.box_upper[d] - c.box_lower[d]) / c.spacing;
+          const double cells = (upper[d] - lower[d]) / c.spacing;
           if (!(cells >= 1.0 - 1e-9) || std::abs(cells - std::round(cells)) > 1e-6 * std::max(1.0, cells))
             context.invalid(box.get("upper", false, ""), box.path("upper"),
                             "must lie a whole number (>= 1) of spacings dx = " + format_number(c.spacing) +
@@ -477,6 +476,30 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
                                 format_number(cells) + ")");
         }
       box.finish();
+      c.boxes.emplace_back(std::move(lower), std::move(upper));
+    };
+    if (g.has("box") && g.get("box", false, "")->is_array()) {
+      // Several boxes: their union, on the lattice of the first one.
+      for (Table box : g.tables("box")) read_box(box);
+      if (c.boxes.empty()) context.invalid(g.get("box", false, ""), g.path("box"), "must hold at least one box");
+      for (std::size_t k = 1; k < c.boxes.size() && c.spacing > 0.0; ++k)
+        for (std::size_t d = 0; d < c.boxes[k].first.size() && d < c.boxes[0].first.size(); ++d) {
+          const double shift = (c.boxes[k].first[d] - c.boxes[0].first[d]) / c.spacing;
+          if (std::abs(shift - std::round(shift)) > 1e-6 * std::max(1.0, std::abs(shift))) {
+            context.errors.push_back(context.where(g.get("box", false, "")) + "geometry.box[" + std::to_string(k) +
+                                     "].lower is invalid: the boxes must share one lattice (their lower "
+                                     "corners a whole number of spacings apart)");
+            break;
+          }
+        }
+    } else {
+      Table box = g.table("box", false);
+      if (box.present()) read_box(box);
+    }
+    if (c.boxes.size() == 1) {
+      c.box_lower = c.boxes[0].first;
+      c.box_upper = c.boxes[0].second;
+      c.boxes.clear();
     }
     if (const auto file = g.text("particle_file", false)) {
       const std::filesystem::path p(*file);
@@ -551,7 +574,7 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
       s.profile = b.text("profile", false, {"uniform", "cantilever_shear"}).value_or("uniform");
       if (s.profile == "cantilever_shear" && (s.type != "traction" || c.dimension < 2 || c.box_lower.empty()))
         context.invalid(b.get("profile", false, ""), b.path("profile"),
-                        "needs a traction condition on a box geometry in 2D or 3D");
+                        "needs a traction condition on a single-box geometry in 2D or 3D");
     } else {
       s.value.assign(dim, 0.0);
     }
@@ -624,7 +647,7 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     c.exact = e.text("solution", e.present(), {"bar", "cantilever"}).value_or("");
     if (c.exact == "bar") {
       if (c.dimension != 1 || c.box_lower.empty())
-        context.invalid(e.get("solution", false, ""), e.path("solution"), "'bar' needs dimension = 1 and a box");
+        context.invalid(e.get("solution", false, ""), e.path("solution"), "'bar' needs dimension = 1 and a single box");
       c.bar_amplitude = e.real("v0", true, "1.0").value_or(0.0);
       c.bar_pulse_duration = e.real("t0", true, "2.5e-3", positive, kPositive + " (s)").value_or(0.0);
       c.bar_left_end = e.text("left_end", false, {"fixed", "free"}).value_or("fixed");
@@ -633,7 +656,7 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
       for (const auto& b : c.boundaries) shear = shear || b.profile == "cantilever_shear";
       if (c.dimension < 2 || c.box_lower.empty() || !shear)
         context.invalid(e.get("solution", false, ""), e.path("solution"),
-                        "'cantilever' needs dimension 2 or 3, a box, and a boundary with profile = "
+                        "'cantilever' needs dimension 2 or 3, a single box, and a boundary with profile = "
                         "\"cantilever_shear\" (its value[1] is the load P)");
     }
     e.finish();

@@ -68,7 +68,9 @@ struct CaseFile {
 
   // [geometry]
   double spacing = 0.0;
-  std::vector<double> box_lower, box_upper;  ///< empty when a particle file is used
+  std::vector<double> box_lower, box_upper;  ///< the box, when there is exactly one
+  /// Every box (lower, upper) when there are several: their union on one lattice.
+  std::vector<std::pair<std::vector<double>, std::vector<double>>> boxes;
   std::string particle_file;                 ///< resolved against `directory`
 
   // [material]

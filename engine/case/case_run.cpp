@@ -21,6 +21,8 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
+#include <set>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -85,6 +87,55 @@ CantileverSettings<Dim> cantilever_settings(const CaseFile& c) {
   return s;
 }
 
+/// Real and virtual particles of a union of boxes on one lattice (spacing dx, origin the
+/// first box's lower corner): a cell is filled if it lies in any box; real particles sit
+/// on the corners of filled cells, each with 1/2^Dim of the volume of every filled cell
+/// it touches (the trapezoidal rule of lattice.hpp, which one box reproduces); virtual
+/// particles at the centres of the filled cells.
+template <int Dim>
+void union_of_boxes(const CaseFile& c, ParticleSet<Dim>& real, ParticleSet<Dim>& virtual_particles) {
+  using Index = std::array<std::int64_t, Dim>;
+  const double dx = c.spacing;
+  const auto& origin = c.boxes[0].first;
+  auto cell_of = [&](double x, int d) { return std::llround((x - origin[static_cast<std::size_t>(d)]) / dx); };
+  std::set<Index> cells;
+  for (const auto& [lower, upper] : c.boxes) {
+    Index first, count;
+    for (int d = 0; d < Dim; ++d) {
+      first[d] = cell_of(lower[static_cast<std::size_t>(d)], d);
+      count[d] = cell_of(upper[static_cast<std::size_t>(d)], d) - first[d];
+    }
+    detail::for_each_multi_index<Dim>(count, [&](std::int64_t, const auto& index) {
+      Index cell;
+      for (int d = 0; d < Dim; ++d) cell[d] = first[d] + index[d];
+      cells.insert(cell);
+    });
+  }
+  std::map<Index, double> node_volume;  // ordered: deterministic particle order
+  const double cell_volume = std::pow(dx, Dim);
+  const double share = cell_volume / static_cast<double>(1 << Dim);
+  Index two;
+  two.fill(2);
+  for (const Index& cell : cells)
+    detail::for_each_multi_index<Dim>(two, [&](std::int64_t, const auto& corner) {
+      Index node;
+      for (int d = 0; d < Dim; ++d) node[d] = cell[d] + corner[d];
+      node_volume[node] += share;
+    });
+  auto position = [&](const Index& i, double offset) {
+    Vector<Dim> x;
+    for (int d = 0; d < Dim; ++d)
+      x[d] = origin[static_cast<std::size_t>(d)] + (static_cast<double>(i[d]) + offset) * dx;
+    return x;
+  };
+  real.resize(node_volume.size());
+  std::size_t k = 0;
+  for (const auto& [node, volume] : node_volume) detail::fill_particle(real, k++, position(node, 0.0), volume, c.density);
+  virtual_particles.resize(cells.size());
+  k = 0;
+  for (const Index& cell : cells) detail::fill_particle(virtual_particles, k++, position(cell, 0.5), cell_volume, c.density);
+}
+
 template <int Dim>
 BuiltCase<Dim> build_case(const CaseFile& c) {
   using Vec = Vector<Dim>;
@@ -99,6 +150,8 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
         box.node_count[d] = std::llround((c.box_upper[d] - c.box_lower[d]) / dx) + 1;
       b.real = make_real_lattice(box, c.density);
       b.virtual_particles = make_virtual_lattice(box, c.density);
+    } else if (!c.boxes.empty()) {
+      union_of_boxes(c, b.real, b.virtual_particles);
     } else {
       b.real = read_particle_csv<Dim>(c.particle_file, dx, c.density);
       b.virtual_particles = make_virtual_particles(b.real, dx, c.density);
@@ -260,6 +313,7 @@ CaseOverview inspect(const CaseFile& c) {
   CaseOverview o;
   o.real_particles = b.real.size();
   o.virtual_particles = b.virtual_particles.size();
+  for (double v : b.real.volume) o.real_volume += v;
   o.spacing = c.spacing;
   o.smoothing_length = b.settings.smoothing_length;
   o.wave_speed = b.wave_speed;
@@ -268,13 +322,21 @@ CaseOverview inspect(const CaseFile& c) {
   o.frames = 2 + static_cast<std::int64_t>(c.output_times.size()) +
              (c.output_every > 0 ? o.steps / c.output_every : 0);
   o.boundary_particles = b.boundary_counts;
-  // Fields: 4 Dim vectors + stresses + mass, density, volume (doubles), 3 int32 tags.
+  // The solver itself checks what only it can (a traction inside the body, ...), and
+  // gives the real neighbour-list sizes.
+  std::optional<TaylorSph<Dim>> solver;
+  try {
+    solver.emplace(std::move(b.real), std::move(b.virtual_particles), *b.material, b.settings, b.conditions);
+  } catch (const std::invalid_argument& e) {
+    throw CaseError({c.path + ": " + e.what()});
+  }
+  // Fields: 4 Dim vectors + stresses + mass, density, volume (doubles), 3 int32 tags;
+  // lists: a 4-byte index per pair, an 8-byte offset per row.
   const double per_particle = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
-  const double radius = 2.0 * c.alpha;  // support in units of dx
-  const double neighbours = Dim == 1 ? 2.0 * radius : Dim == 2 ? M_PI * radius * radius
-                                                              : 4.0 / 3.0 * M_PI * radius * radius * radius;
   const double particles = static_cast<double>(o.real_particles + o.virtual_particles);
-  o.memory_bytes = particles * per_particle + particles * (4.0 * neighbours + 8.0);
+  const double pairs = static_cast<double>(solver->virtual_from_real().pair_count() +
+                                           solver->real_from_virtual().pair_count());
+  o.memory_bytes = particles * per_particle + 4.0 * pairs + 8.0 * particles;
   return o;
 }
 

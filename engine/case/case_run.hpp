@@ -25,6 +25,7 @@ class RunDiverged : public std::runtime_error {
 struct CaseOverview {
   std::size_t real_particles = 0, virtual_particles = 0;
   double spacing = 0.0, smoothing_length = 0.0, wave_speed = 0.0, dt = 0.0;
+  double real_volume = 0.0;  ///< sum of the real particles' volumes (length, area, volume)
   std::int64_t steps = 0;  ///< to the end time, with the output times landed on
   std::int64_t frames = 0;
   double memory_bytes = 0.0;  ///< estimate: particle fields and neighbour lists
