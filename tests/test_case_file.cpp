@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <sstream>
 #include <string>
 
 namespace {
@@ -329,6 +330,71 @@ TEST_F(CaseFileTest, CantileverCaseFileReproducesRunCantilever) {
     if (e.name == "tip_displacement_y" && e.time == r.time) tip = e.value;
   ASSERT_GT(std::abs(reference.tip_deflection), 1e-9);  // the load has moved the tip
   EXPECT_NEAR(tip, reference.tip_deflection, 1e-9 * std::abs(reference.tip_deflection));
+}
+
+// The named initial profile: a free-free bar started in its fundamental mode,
+// v = A cos(pi x / L) (sine with wavelength 2L, phase pi/2), is back to its initial
+// velocity after one period 2L/c (CFL 1, alpha 0.6: the scheme shifts exactly).
+TEST_F(CaseFileTest, SineInitialProfileGivesTheFreeBarsFundamentalMode) {
+  const std::string path = write("mode.toml", R"(dimension = 1
+[geometry]
+spacing = 0.01
+box = { lower = [0.0], upper = [1.0] }
+[material]
+E = 8e7
+rho = 2000.0
+[method]
+alpha = 0.6
+[time]
+end = 0.01
+cfl = 1.0
+[[boundary]]
+name = "ends"
+type = "free"
+region = [{ type = "half_space", point = [0.0], normal = [-1.0] },
+          { type = "half_space", point = [1.0], normal = [1.0] }]
+[initial.profile]
+type = "sine"
+amplitude = [0.5]
+direction = [1.0]
+wavelength = 2.0
+phase = 1.5707963267948966
+[output]
+probe_every = 50
+[[output.probe]]
+name = "end"
+point = [0.0]
+[[output.probe]]
+name = "quarter"
+point = [0.25]
+)");
+  RunOptions options;
+  options.out_dir = directory_.string();
+  options.quiet = true;
+  set_thread_count(1);
+  const RunReport r = run_case(load_case(path), options);
+  EXPECT_EQ(r.steps, 200);
+  auto velocity_rows = [&](const std::string& probe) {
+    std::ifstream in(directory_ / ("probe_" + probe + ".csv"));
+    std::string line;
+    std::getline(in, line);  // header: t,x0_x,ux,vx,...
+    std::vector<std::pair<double, double>> rows;
+    while (std::getline(in, line)) {
+      std::vector<double> v;
+      std::stringstream fields(line);
+      for (std::string f; std::getline(fields, f, ',');) v.push_back(std::stod(f));
+      rows.emplace_back(v[0], v[3]);
+    }
+    return rows;
+  };
+  const auto end = velocity_rows("end"), quarter = velocity_rows("quarter");
+  ASSERT_EQ(end.size(), 5u);  // t = 0, T/4, T/2, 3T/4, T
+  EXPECT_NEAR(end.front().second, 0.5, 1e-10);  // the CSV holds 11 digits
+  EXPECT_NEAR(quarter.front().second, 0.5 * std::cos(M_PI * 0.25), 1e-10);
+  EXPECT_NEAR(end[2].second, -0.5, 1e-9);  // half a period: reversed
+  EXPECT_NEAR(end.back().second, 0.5, 1e-9);
+  EXPECT_NEAR(quarter.back().second, 0.5 * std::cos(M_PI * 0.25), 1e-9);
+  EXPECT_NEAR(end[1].second, 0.0, 1e-9);   // a quarter period: all strain, no velocity
 }
 
 TEST(ProgressLine, ShowsStepTimePercentEtaAndRate) {

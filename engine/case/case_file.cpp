@@ -594,6 +594,20 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     c.initial_stress = i.numbers("stress", false, stress_count,
                                  dim == 2 ? "xx, yy, xy, zz (Pa)" : "xx, yy, zz, xy, yz, zx (Pa)")
                            .value_or(std::vector<double>(stress_count, 0.0));
+    Table profile = i.table("profile", false);
+    if (profile.present()) {
+      c.initial_profile = profile.text("type", true, {"sine"}).value_or("");
+      c.wave_amplitude = profile.numbers("amplitude", true, dim, "the velocity vector at the crests, m/s")
+                             .value_or(std::vector<double>(dim, 0.0));
+      c.wave_direction = profile.numbers("direction", true, dim, "along which the profile varies")
+                             .value_or(std::vector<double>(dim, 0.0));
+      if (c.wave_direction.size() == dim &&
+          std::all_of(c.wave_direction.begin(), c.wave_direction.end(), [](double v) { return v == 0.0; }))
+        context.invalid(profile.get("direction", false, ""), profile.path("direction"), "must be non-zero");
+      c.wavelength = profile.real("wavelength", true, "2.0", positive, kPositive + " (m)").value_or(1.0);
+      c.wave_phase = profile.real("phase", false, "1.5707963267948966").value_or(0.0);
+      profile.finish();
+    }
     i.finish();
   }
   {  // [damping]

@@ -94,6 +94,10 @@ struct CaseFile {
 
   // [initial]
   std::vector<double> initial_velocity, velocity_gradient, initial_stress;
+  /// [initial.profile] type = "sine": v += amplitude sin(2 pi (x0 . direction) / wavelength + phase).
+  std::string initial_profile;  ///< "" or sine
+  std::vector<double> wave_amplitude, wave_direction;
+  double wavelength = 0.0, wave_phase = 0.0;
 
   // [damping]
   double damping = 0.0;

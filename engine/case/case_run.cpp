@@ -174,7 +174,11 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
     for (std::size_t i = 0; i < set->size(); ++i) {
       Vec x0;
       for (int d = 0; d < Dim; ++d) x0[d] = set->initial_position[d][i];
-      const Vec v = v0 + gradient * x0;
+      Vec v = v0 + gradient * x0;
+      if (c.initial_profile == "sine") {  // a standing or travelling wave's velocity
+        const Vec n = to_vector<Dim>(c.wave_direction).normalized();
+        v += to_vector<Dim>(c.wave_amplitude) * std::sin(2.0 * M_PI * x0.dot(n) / c.wavelength + c.wave_phase);
+      }
       for (int d = 0; d < Dim; ++d) set->velocity[d][i] += v[d];
       for (int s = 0; s < stress_component_count<Dim>; ++s)
         set->stress[s][i] += c.initial_stress[static_cast<std::size_t>(s)];
