@@ -50,6 +50,7 @@
 #include "kernels/smoothing_kernels.hpp"
 #include "neighbor/cell_list.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -165,6 +166,21 @@ class SolutionDiverged : public std::runtime_error {
 /// dominating the energy, long before it overflows.
 inline constexpr double kRunawayFactor = 1000.0;
 inline constexpr std::array<double, 3> kRunawayGrowths = {2.0, 1.2, 1.05};
+/// Runaway of an oscillating energy (the per-step rule above misses it): the largest
+/// energy so far, M, grew by kRunawayWindowFactor or more over the last W steps and
+/// over the W before, the later growth at least half the earlier one (an exponential,
+/// whose log is straight; a power (t - t1)^k has a concave log and passes both only for
+/// k > 20), for W of kRunawayWindows.
+inline constexpr double kRunawayWindowFactor = 30.0;
+inline constexpr std::array<int, 2> kRunawayWindows = {20, 100};
+/// A sudden blow-up (the 2D updated-Lagrangian cantilever at its clamp: the energy jumps
+/// x85 in 4 steps, falls back, and overflows 60 steps later): the energy exceeds
+/// kRunawayJumpFactor times the largest energy of the run up to kRunawayJumpSteps steps
+/// before, once the run has carried energy for kRunawayJumpAfter steps (a power
+/// (t - t1)^k of the time since the load started does that only for k > 340).
+inline constexpr double kRunawayJumpFactor = 30.0;
+inline constexpr int kRunawayJumpSteps = 10;
+inline constexpr std::int64_t kRunawayJumpAfter = 1000;
 
 template <int Dim>
 class TaylorSph {
@@ -222,6 +238,9 @@ class TaylorSph {
     boundary_half_velocity_gradient_.assign(nb, Mat::Zero());
     for (auto& v : previous_velocity_) v.resize(real_.size());
     filtered_velocity_.assign(nb, Vec::Zero());
+    double virtual_volume = 0.0;  // dx of the CFL in a diagnosis (check_stability)
+    for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.volume[q];
+    initial_spacing_ = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
     rebuild_neighbors();
   }
 
@@ -311,6 +330,29 @@ class TaylorSph {
         runaway = "the total energy grew by a factor " + format_number(g) + " or more in each of the last " +
                   std::to_string(steps) + " steps (to " + format_number(energy) + " J)";
     }
+    const double largest = std::max(largest_energy_.empty() ? 0.0 : largest_energy_.back(), energy);
+    largest_energy_.push_back(largest);  // the last 2 W + 1 values of M
+    if (largest_energy_.size() > 2 * static_cast<std::size_t>(kRunawayWindows.back()) + 1)
+      largest_energy_.erase(largest_energy_.begin());
+    if (largest > 0.0) ++energized_steps_;
+    if (const std::size_t n = largest_energy_.size() - 1, back = kRunawayJumpSteps;
+        runaway.empty() && energized_steps_ > kRunawayJumpAfter && n >= back &&
+        energy >= kRunawayJumpFactor * largest_energy_[n - back])
+      runaway = "the total energy jumped to " + format_number(energy) + " J, x" +
+                format_number(energy / largest_energy_[n - back]) +
+                " the largest of the run until " + std::to_string(kRunawayJumpSteps) +
+                " steps before";
+    for (int w : kRunawayWindows) {
+      const std::size_t n = largest_energy_.size() - 1, window = static_cast<std::size_t>(w);
+      if (!runaway.empty() || n < 2 * window) continue;
+      const double now = largest_energy_[n], before = largest_energy_[n - window],
+                   earlier = largest_energy_[n - 2 * window];
+      if (earlier > 0.0 && before >= kRunawayWindowFactor * earlier &&
+          now >= kRunawayWindowFactor * before && now / before >= 0.5 * (before / earlier))
+        runaway = "the largest energy so far grew steadily, x" + format_number(before / earlier) +
+                  " and then x" + format_number(now / before) + " over two spans of " +
+                  std::to_string(w) + " steps (to " + format_number(now) + " J)";
+    }
     if (!runaway.empty()) {
       std::size_t worst = 0;  // the real particle holding the most energy
       double worst_energy = -1.0;
@@ -328,7 +370,8 @@ class TaylorSph {
 
   /// "solver: the solution diverged at step n (t = ...): <set> particle <id> at (x, y)
   /// <what>; likely cause: ..." The cause, in order: a time step above the stability
-  /// limit (CFL = dt c_p / dx > 1, dx from the virtual particles' volumes), a boundary
+  /// limit (CFL = dt c_p / dx > 1, c_p at the material's reference density, dx from the
+  /// virtual particles' initial volumes), a boundary
   /// condition (the particle is on a boundary or within the support 2h of one), else
   /// alpha = h / dx or the kinematics.
   std::string diagnosis(std::int64_t step, double dt, const ParticleSet<Dim>& set, std::size_t i,
@@ -338,14 +381,8 @@ class TaylorSph {
     std::string where = "(";
     for (int d = 0; d < Dim; ++d) where += (d ? ", " : "") + format_number(x[d]);
     where += ")";
-    double volume = 0.0, density = 0.0;
-    for (std::size_t q = 0; q < virtual_.size(); ++q) volume += virtual_.volume[q];
-    for (std::size_t r = 0; r < real_.size(); ++r)
-      if (std::isfinite(real_.density[r]) && real_.density[r] > 0.0 &&
-          (density == 0.0 || real_.density[r] < density))
-        density = real_.density[r];
-    const double dx = std::pow(volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
-    const double cfl = dt * material_.p_wave_speed(density) / dx;
+    const double dx = initial_spacing_;
+    const double cfl = dt * material_.p_wave_speed(material_.reference_density()) / dx;
     std::string cause;
     if (cfl > 1.0 + 1e-9) {
       cause = "the time step: CFL = dt c_p / dx = " + format_number(cfl) +
@@ -836,6 +873,9 @@ class TaylorSph {
   SolverCounters counters_;
   double previous_energy_ = 0.0;   ///< total energy after the last step (check_stability)
   std::array<int, kRunawayGrowths.size()> energy_growth_steps_{};  ///< consecutive, per growth
+  std::vector<double> largest_energy_;
+  double initial_spacing_ = 0.0;
+  std::int64_t energized_steps_ = 0;  ///< steps with a positive largest energy  ///< (mean initial virtual volume)^(1/Dim)  ///< largest energy so far, after each recent step
 
   NeighborList virtual_from_real_;  ///< rows: virtual particles; entries: real
   NeighborList real_from_virtual_;  ///< rows: real particles; entries: virtual
