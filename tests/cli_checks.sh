@@ -43,6 +43,8 @@ checks=12
 
 # Output failure: the file-size limit (ulimit -f, SIGXFSZ ignored) makes writes fail
 # with EFBIG, as a full disk does with ENOSPC. The files of an earlier run must stay.
+# Not under ThreadSanitizer, whose runtime faults (SIGBUS) under a file-size limit.
+if [ -z "${TSAN_OPTIONS:-}" ]; then
 checks=$((checks + 1))
 mkdir -p "$out/full"
 echo "earlier run" >"$out/full/summary.json"
@@ -55,6 +57,7 @@ if [ "$got" -ne 1 ] || ! grep -qE "stopped: cannot write '.*profile_t3.750000ms.
    ls "$out/full" | grep -q partial; then
   echo "FAIL: output failure -> status $got (want 1), output: $text; directory: $(ls "$out/full")"
   failures=$((failures + 1))
+fi
 fi
 # tsph-cantilever (second argument): bad input only, exit status 2.
 cantilever="${2:-}"
