@@ -6,10 +6,13 @@
 #include "engine/taylor_sph.hpp"
 #include "engine/time_function.hpp"
 
+#include <functional>
 #include <string>
 #include <vector>
 
 namespace tsph {
+
+struct BarProfile;
 
 enum class BarEnd { fixed, free };
 enum class BarLoad { velocity, traction };
@@ -32,6 +35,10 @@ struct BarCaseSettings {
   std::vector<double> output_times{3.75e-3, 7.5e-3};
   double end_time = 0.0;          ///< 0: the last output time
   bool record_energy = false;     ///< energy after every step (tests, studies)
+  bool force = false;             ///< accept a CFL above the stability limit 1 (to study it)
+  /// Called with each profile as soon as it is sampled (tsph-bar writes it at once, so
+  /// that a run that diverges later keeps its earlier output).
+  std::function<void(const BarProfile&)> on_profile;
 
   double spacing() const { return length / (particle_count - 1); }
   double wave_speed() const;

@@ -58,8 +58,10 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
   }
   if (!(s.alpha > 0.5) || !(s.alpha <= 4.0))
     errors.push_back({"alpha", format_number(s.alpha), "must lie in (0.5, 4]"});
-  if (!(s.cfl > 0.0) || !(s.cfl <= 1.0))
-    errors.push_back({"cfl", format_number(s.cfl), "must lie in (0, 1]"});
+  if (!(s.cfl > 0.0) || !std::isfinite(s.cfl) || (s.cfl > 1.0 && !s.force))
+    errors.push_back({"cfl", format_number(s.cfl),
+                      "must lie in (0, 1]: the two-step scheme is unstable above CFL 1 "
+                      "(force runs it anyway)"});
   if (!(s.hourglass >= 0.0 && s.hourglass < 1.0))
     errors.push_back({"hourglass", format_number(s.hourglass), "must lie in [0, 1)"});
   return errors;
@@ -178,9 +180,6 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
     const double tip_velocity = std::abs(solver.real().velocity[1][tip]);
     if (s.progress && solver.counters().steps % report_every == 0)
       s.progress(solver.time(), solver.real().displacement[1][tip], solver.kinetic_energy());
-    if (!std::isfinite(tip_velocity))
-      throw std::runtime_error("cantilever: the solution diverged at t = " +
-                               format_number(solver.time()));
     if (solver.time() > ramp + 0.25 * period && tip_velocity < velocity_tolerance) {
       result.converged = true;
       break;

@@ -30,6 +30,7 @@ struct CantileverSettings {
   PlaneMode plane_mode = PlaneMode::plane_stress;
   double alpha = 0.6;
   double cfl = 0.9;
+  bool force = false;    ///< accept a CFL above the stability limit 1 (to study it)
   KernelKind kernel = KernelKind::cubic_spline;
   /// The exact solutions are those of linear elasticity: small strain by default.
   Kinematics kinematics = Kinematics::small_strain;

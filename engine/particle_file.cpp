@@ -49,6 +49,16 @@ ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, doub
   if (!in)
     throw std::invalid_argument("particle file '" + path +
                                 "' cannot be opened: check the path and its permissions");
+  return read_particle_csv<Dim>(in, path, spacing, density);
+}
+
+template <int Dim>
+ParticleSet<Dim> read_particle_csv(std::istream& in, const std::string& path, double spacing,
+                                   double density) {
+  std::vector<InputError> errors;
+  require_positive(errors, "dx", spacing);
+  require_positive(errors, "density", density);
+  throw_if_invalid(errors);
   const std::array<const char*, 3> axes = {"x", "y", "z"};
   const std::array<const char*, 3> velocities = {"vx", "vy", "vz"};
   // Column name -> (field kind, component).
@@ -205,6 +215,9 @@ ParticleSet<Dim> make_virtual_particles(const ParticleSet<Dim>& real, double spa
 template ParticleSet<1> read_particle_csv<1>(const std::string&, double, double);
 template ParticleSet<2> read_particle_csv<2>(const std::string&, double, double);
 template ParticleSet<3> read_particle_csv<3>(const std::string&, double, double);
+template ParticleSet<1> read_particle_csv<1>(std::istream&, const std::string&, double, double);
+template ParticleSet<2> read_particle_csv<2>(std::istream&, const std::string&, double, double);
+template ParticleSet<3> read_particle_csv<3>(std::istream&, const std::string&, double, double);
 template ParticleSet<1> make_virtual_particles<1>(const ParticleSet<1>&, double, double);
 template ParticleSet<2> make_virtual_particles<2>(const ParticleSet<2>&, double, double);
 template ParticleSet<3> make_virtual_particles<3>(const ParticleSet<3>&, double, double);

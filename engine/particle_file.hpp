@@ -14,6 +14,7 @@
 
 #include "engine/particle_set.hpp"
 
+#include <istream>
 #include <string>
 
 namespace tsph {
@@ -23,6 +24,12 @@ namespace tsph {
 /// unparsable or non-finite value, duplicated or overlapping particles).
 template <int Dim>
 ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, double density);
+
+/// The same from a stream; `name` stands for the file in the messages (the fuzz target
+/// reads from memory through this).
+template <int Dim>
+ParticleSet<Dim> read_particle_csv(std::istream& in, const std::string& name, double spacing,
+                                   double density);
 
 /// Virtual particles at the centres of the lattice cells filled by `real`.
 template <int Dim>

@@ -43,12 +43,15 @@
 
 #include "engine/boundary_condition.hpp"
 #include "engine/elasticity.hpp"
+#include "engine/input_error.hpp"
 #include "engine/parallel.hpp"
 #include "engine/particle_set.hpp"
 #include "kernels/corrected_operators.hpp"
 #include "kernels/smoothing_kernels.hpp"
 #include "neighbor/cell_list.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
@@ -145,6 +148,40 @@ inline NeighborList without_self(const NeighborList& list) {
 /// of the outward kernel normal -sum_J V_J grad W_IJ (cosine below this value).
 inline constexpr double kSurfaceCosine = 0.5;
 
+/// The run blew up: NaN/Inf in either particle set or a runaway of the energy. The
+/// message names the step, the time, the first offending particle (id, position) and
+/// the likely cause; the command-line programs exit with status 3 on it.
+class SolutionDiverged : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Runaway energy: the total energy of the real set grows by at least a factor g in each
+/// of K(g) consecutive steps, g^K(g) >= kRunawayFactor, for any g of kRunawayGrowths (or
+/// it overflows). A load switched on at any time whose energy input grows like
+/// (t - t1)^k grows by (1 + 1/m)^k at its m-th step, which stays above g for K(g)
+/// consecutive steps only if k > ln(kRunawayFactor) = 6.9, so no load of degree up to 6
+/// triggers it, while a mode that grows by g or more per step (an unstable CFL: about
+/// 1.45 at CFL 1.05, 12 at CFL 1.5 in the bar) is caught within K(g) steps of
+/// dominating the energy, long before it overflows.
+inline constexpr double kRunawayFactor = 1000.0;
+inline constexpr std::array<double, 3> kRunawayGrowths = {2.0, 1.2, 1.05};
+/// Runaway of an oscillating energy (the per-step rule above misses it): the largest
+/// energy so far, M, grew by kRunawayWindowFactor or more over the last W steps and
+/// over the W before, the later growth at least half the earlier one (an exponential,
+/// whose log is straight; a power (t - t1)^k has a concave log and passes both only for
+/// k > 20), for W of kRunawayWindows.
+inline constexpr double kRunawayWindowFactor = 30.0;
+inline constexpr std::array<int, 2> kRunawayWindows = {20, 100};
+/// A sudden blow-up (the 2D updated-Lagrangian cantilever at its clamp: the energy jumps
+/// x85 in 4 steps, falls back, and overflows 60 steps later): the energy exceeds
+/// kRunawayJumpFactor times the largest energy of the run up to kRunawayJumpSteps steps
+/// before, once the run has carried energy for kRunawayJumpAfter steps (a power
+/// (t - t1)^k of the time since the load started does that only for k > 340).
+inline constexpr double kRunawayJumpFactor = 30.0;
+inline constexpr int kRunawayJumpSteps = 10;
+inline constexpr std::int64_t kRunawayJumpAfter = 1000;
+
 template <int Dim>
 class TaylorSph {
  public:
@@ -201,6 +238,9 @@ class TaylorSph {
     boundary_half_velocity_gradient_.assign(nb, Mat::Zero());
     for (auto& v : previous_velocity_) v.resize(real_.size());
     filtered_velocity_.assign(nb, Vec::Zero());
+    double virtual_volume = 0.0;  // dx of the CFL in a diagnosis (check_stability)
+    for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.volume[q];
+    initial_spacing_ = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
     rebuild_neighbors();
   }
 
@@ -231,18 +271,7 @@ class TaylorSph {
       apply_boundary_conditions(dt, time_ + dt);
       if (settings_.hourglass_coefficient > 0.0) filter_hourglass(kernel);
     });
-    // A diverged state is reported as such before it moves any particle.
-    auto check_finite = [&](const ParticleSet<Dim>& set, const char* which) {
-      for (std::size_t i = 0; i < set.size(); ++i)
-        for (int d = 0; d < Dim; ++d)
-          if (!std::isfinite(set.velocity[d][i]))
-            throw std::runtime_error("solver: the solution diverged at step " +
-                                     std::to_string(counters_.steps + 1) + " (t = " +
-                                     std::to_string(time_ + dt) + "): " + which + " particle " +
-                                     std::to_string(set.id[i]) + " has a non-finite velocity");
-    };
-    check_finite(real_, "real");
-    check_finite(virtual_, "virtual");
+    check_stability(dt);  // a diverged state is reported before it moves any particle
     move(dt);
     if (settings_.kinematics == Kinematics::updated_lagrangian) rebuild_neighbors();
     time_ += dt;
@@ -275,6 +304,118 @@ class TaylorSph {
   }
 
  private:
+  /// NaN/Inf in the velocity or stress of either set, or a runaway of the energy
+  /// (kRunawayGrowthPerStep): throws SolutionDiverged with the diagnosis.
+  void check_stability(double dt) {
+    const std::int64_t step = counters_.steps + 1;
+    auto non_finite = [](const ParticleSet<Dim>& set, std::size_t i) -> const char* {
+      for (int d = 0; d < Dim; ++d)
+        if (!std::isfinite(set.velocity[d][i])) return "velocity";
+      for (int m = 0; m < stress_count; ++m)
+        if (!std::isfinite(set.stress[m][i])) return "stress";
+      return nullptr;
+    };
+    for (const auto* set : {&real_, &virtual_})
+      for (std::size_t i = 0; i < set->size(); ++i)
+        if (const char* field = non_finite(*set, i))
+          throw SolutionDiverged(diagnosis(step, dt, *set, i, std::string("has a non-finite ") + field));
+    const double energy = kinetic_energy() + strain_energy();
+    std::string runaway = std::isfinite(energy) ? "" : "the total energy overflowed";
+    for (std::size_t k = 0; k < kRunawayGrowths.size(); ++k) {
+      const double g = kRunawayGrowths[k];
+      auto& count = energy_growth_steps_[k];
+      count = previous_energy_ > 0.0 && energy >= g * previous_energy_ ? count + 1 : 0;
+      const int steps = static_cast<int>(std::ceil(std::log(kRunawayFactor) / std::log(g)));
+      if (runaway.empty() && count >= steps)
+        runaway = "the total energy grew by a factor " + format_number(g) + " or more in each of the last " +
+                  std::to_string(steps) + " steps (to " + format_number(energy) + " J)";
+    }
+    const double largest = std::max(largest_energy_.empty() ? 0.0 : largest_energy_.back(), energy);
+    largest_energy_.push_back(largest);  // the last 2 W + 1 values of M
+    if (largest_energy_.size() > 2 * static_cast<std::size_t>(kRunawayWindows.back()) + 1)
+      largest_energy_.erase(largest_energy_.begin());
+    if (largest > 0.0) ++energized_steps_;
+    if (const std::size_t n = largest_energy_.size() - 1, back = kRunawayJumpSteps;
+        runaway.empty() && energized_steps_ > kRunawayJumpAfter && n >= back &&
+        energy >= kRunawayJumpFactor * largest_energy_[n - back])
+      runaway = "the total energy jumped to " + format_number(energy) + " J, x" +
+                format_number(energy / largest_energy_[n - back]) +
+                " the largest of the run until " + std::to_string(kRunawayJumpSteps) +
+                " steps before";
+    for (int w : kRunawayWindows) {
+      const std::size_t n = largest_energy_.size() - 1, window = static_cast<std::size_t>(w);
+      if (!runaway.empty() || n < 2 * window) continue;
+      const double now = largest_energy_[n], before = largest_energy_[n - window],
+                   earlier = largest_energy_[n - 2 * window];
+      if (earlier > 0.0 && before >= kRunawayWindowFactor * earlier &&
+          now >= kRunawayWindowFactor * before && now / before >= 0.5 * (before / earlier))
+        runaway = "the largest energy so far grew steadily, x" + format_number(before / earlier) +
+                  " and then x" + format_number(now / before) + " over two spans of " +
+                  std::to_string(w) + " steps (to " + format_number(now) + " J)";
+    }
+    if (!runaway.empty()) {
+      std::size_t worst = 0;  // the real particle holding the most energy
+      double worst_energy = -1.0;
+      for (std::size_t i = 0; i < real_.size(); ++i) {
+        const Vec v = velocity_of(i);
+        const double e = 0.5 * real_.mass[i] * v.squaredNorm() +
+                         real_.volume[i] * material_.strain_energy_density(stress_of(real_, i));
+        if (e > worst_energy) worst_energy = e, worst = i;
+      }
+      throw SolutionDiverged(
+          diagnosis(step, dt, real_, worst, "holds the most energy of a runaway: " + runaway));
+    }
+    previous_energy_ = energy;
+  }
+
+  /// "solver: the solution diverged at step n (t = ...): <set> particle <id> at (x, y)
+  /// <what>; likely cause: ..." The cause, in order: a time step above the stability
+  /// limit (CFL = dt c_p / dx > 1, c_p at the material's reference density, dx from the
+  /// virtual particles' initial volumes), a boundary
+  /// condition (the particle is on a boundary or within the support 2h of one), else
+  /// alpha = h / dx or the kinematics.
+  std::string diagnosis(std::int64_t step, double dt, const ParticleSet<Dim>& set, std::size_t i,
+                        const std::string& what) const {
+    const bool is_real = &set == &real_;
+    const Vec x = set.position_of(i);
+    std::string where = "(";
+    for (int d = 0; d < Dim; ++d) where += (d ? ", " : "") + format_number(x[d]);
+    where += ")";
+    const double dx = initial_spacing_;
+    const double cfl = dt * material_.p_wave_speed(material_.reference_density()) / dx;
+    std::string cause;
+    if (cfl > 1.0 + 1e-9) {
+      cause = "the time step: CFL = dt c_p / dx = " + format_number(cfl) +
+              " is above the scheme's stability limit 1; lower cfl";
+    } else {
+      const int near = nearest_boundary(x, is_real ? real_.boundary[i] : ParticleSet<Dim>::kNoBoundary);
+      if (near != ParticleSet<Dim>::kNoBoundary)
+        cause = "the boundary condition '" + boundaries_[static_cast<std::size_t>(near)].name +
+                "' (the particle is within the support 2h of it): check its kind and values, "
+                "and that a traction acts on a free surface";
+      else
+        cause = "alpha = h / dx = " + format_number(settings_.smoothing_length / dx) + " or the " +
+                std::string(to_string(settings_.kinematics)) +
+                " kinematics (stable: alpha 0.6 to 1.2, small_strain; README, Known problems)";
+    }
+    return "solver: the solution diverged at step " + std::to_string(step) + " (t = " +
+           format_number(time_ + dt) + " s): " + (is_real ? "real" : "virtual") + " particle " +
+           std::to_string(set.id[i]) + " at " + where + " " + what + "; likely cause: " + cause;
+  }
+
+  /// The boundary condition a particle is on (`own`), else that of the nearest boundary
+  /// particle within the support radius, else kNoBoundary.
+  int nearest_boundary(const Vec& x, std::int32_t own) const {
+    if (own != ParticleSet<Dim>::kNoBoundary) return own;
+    int found = ParticleSet<Dim>::kNoBoundary;
+    double best = support_radius() * support_radius();
+    for (std::uint32_t b : boundary_particles_) {
+      const double d2 = (real_.position_of(b) - x).squaredNorm();
+      if (d2 <= best) best = d2, found = real_.boundary[b];
+    }
+    return found;
+  }
+
   static StressVector<Dim> stress_of(const ParticleSet<Dim>& set, std::size_t i) {
     StressVector<Dim> s;
     for (int c = 0; c < stress_count; ++c) s[c] = set.stress[c][i];
@@ -730,6 +871,11 @@ class TaylorSph {
   std::vector<BoundaryCondition<Dim>> boundaries_;
   double time_ = 0.0;
   SolverCounters counters_;
+  double previous_energy_ = 0.0;   ///< total energy after the last step (check_stability)
+  std::array<int, kRunawayGrowths.size()> energy_growth_steps_{};  ///< consecutive, per growth
+  std::vector<double> largest_energy_;
+  double initial_spacing_ = 0.0;
+  std::int64_t energized_steps_ = 0;  ///< steps with a positive largest energy  ///< (mean initial virtual volume)^(1/Dim)  ///< largest energy so far, after each recent step
 
   NeighborList virtual_from_real_;  ///< rows: virtual particles; entries: real
   NeighborList real_from_virtual_;  ///< rows: real particles; entries: virtual

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Command-line contract of tsph-bar: bad input gives exit status 2 and one message
-# naming the parameter, the value and the allowed range; good input gives 0.
+# naming the parameter, the value and the allowed range; good input gives 0; a forced
+# unstable run gives 3 and the diagnosis; an output file that cannot be written gives 1,
+# names the file and loses nothing written before.
 set -u
 bar="$1"
 out="$(mktemp -d)"
@@ -22,7 +24,8 @@ expect() {  # expect STATUS REGEX ARGS...
 }
 
 expect 2 "alpha = -1 is invalid: must lie in \(0.5, 4\]" --alpha -1
-expect 2 "cfl = 1.2 is invalid: must lie in \(0, 1\]" --cfl 1.2
+expect 2 "cfl = 1.2 is invalid: must lie in \(0, 1\].*force" --cfl 1.2
+expect 3 "stopped: solver: the solution diverged at step [0-9]+ \(t = .* s\): real particle [0-9]+ at \(.*\) .*likely cause: the time step: CFL = dt c_p / dx = 1.5" --cfl 1.5 --force
 expect 2 "kernel = 'gauss' is invalid: must be one of: cubic_spline, quintic_spline, wendland_c2" --kernel gauss
 expect 2 "young_modulus = 0 is invalid: must be a positive" --E 0
 expect 2 "density = -5 is invalid" --rho -5
@@ -36,7 +39,26 @@ expect 0 "" --times 0.00375
 grep -q '"velocity_l2_error_percent"' "$out/run/summary.json" 2>/dev/null ||
   { echo "FAIL: summary.json lacks the errors"; failures=$((failures + 1)); }
 
-checks=11
+checks=12
+
+# Output failure: the file-size limit (ulimit -f, SIGXFSZ ignored) makes writes fail
+# with EFBIG, as a full disk does with ENOSPC. The files of an earlier run must stay.
+# Not under ThreadSanitizer, whose runtime faults (SIGBUS) under a file-size limit.
+if [ -z "${TSAN_OPTIONS:-}" ]; then
+checks=$((checks + 1))
+mkdir -p "$out/full"
+echo "earlier run" >"$out/full/summary.json"
+echo "earlier profile" >"$out/full/profile_t3.750000ms.csv"
+text="$( (trap '' XFSZ; ulimit -f 4; exec "$bar" --quiet --out "$out/full" --times 0.00375) 2>&1)"
+got=$?
+if [ "$got" -ne 1 ] || ! grep -qE "stopped: cannot write '.*profile_t3.750000ms.csv' \(write: File too large\)" <<<"$text" ||
+   [ "$(cat "$out/full/summary.json")" != "earlier run" ] ||
+   [ "$(cat "$out/full/profile_t3.750000ms.csv")" != "earlier profile" ] ||
+   ls "$out/full" | grep -q partial; then
+  echo "FAIL: output failure -> status $got (want 1), output: $text; directory: $(ls "$out/full")"
+  failures=$((failures + 1))
+fi
+fi
 # tsph-cantilever (second argument): bad input only, exit status 2.
 cantilever="${2:-}"
 if [ -n "$cantilever" ]; then
@@ -56,6 +78,15 @@ if [ -n "$cantilever" ]; then
   expect_cantilever "nodes_y = 6 is invalid: must be odd" --nx 51
   expect_cantilever "young_modulus = -1 is invalid" --E -1
   expect_cantilever "plane: .*not in" --plane membrane
+  expect_cantilever "cfl = 1.5 is invalid: must lie in \(0, 1\].*force" --cfl 1.5
+  # A forced unstable CFL: exit status 3 and the diagnosis, within a few steps.
+  checks=$((checks + 1))
+  text="$("$cantilever" --out "$out/cantilever" --quiet --nx 21 --cfl 1.5 --force 2>&1)"
+  got=$?
+  if [ "$got" -ne 3 ] || ! grep -qE "diverged at step [0-9]+ .*real particle [0-9]+ at \(.*, .*\).*likely cause: the time step: CFL" <<<"$text"; then
+    echo "FAIL: tsph-cantilever --cfl 1.5 --force -> status $got (want 3), output: $text"
+    failures=$((failures + 1))
+  fi
 fi
 
 echo "$((checks - failures)) passed, $failures failed"

@@ -13,6 +13,8 @@ packages=(
   libcli11-dev              # command-line parsing
   libtomlplusplus-dev       # case files (TOML) for the tsph command
   python3-numpy python3-matplotlib  # tools/plot_*.py: figures against the exact solutions
+  clang-14 libclang-rt-14-dev  # sanitizer builds: ThreadSanitizer, libFuzzer (presets tsan, fuzz)
+  libomp-14-dev             # LLVM's OpenMP runtime and its Archer tool, which TSan understands
 )
 
 missing=()

@@ -4,14 +4,17 @@
 //   tsph-bar --table1 [options] the seed's Table 1: alpha = 0.6, 1.2, 1.6 side by side
 //                               with the paper's errors
 //
-// Exit status: 0 success, 2 bad input, 1 other failure.
+// Exit status: 0 success, 2 bad input, 3 the solution diverged (the profiles of the
+// output times reached before stay written), 1 other failure (an output file that
+// cannot be written: the message names it; files written before are kept).
 #include "engine/bar_case.hpp"
+#include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
 #include "tools/cli_common.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
-#include <fmt/os.h>
+#include <fmt/format.h>
 
 #include <cstdio>
 #include <exception>
@@ -81,11 +84,12 @@ std::vector<InputError> resolve(Options& o) {
 }
 
 void write_profile(const std::filesystem::path& file, const BarProfile& p) {
-  auto out = fmt::output_file(file.string());
-  out.print("x,velocity,velocity_exact,stress,stress_exact\n");
+  std::string text = "x,velocity,velocity_exact,stress,stress_exact\n";
   for (std::size_t i = 0; i < p.position.size(); ++i)
-    out.print("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n", p.position[i], p.velocity[i],
-              p.exact_velocity[i], p.stress[i], p.exact_stress[i]);
+    fmt::format_to(std::back_inserter(text), "{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n",
+                   p.position[i], p.velocity[i], p.exact_velocity[i], p.stress[i],
+                   p.exact_stress[i]);
+  write_file_atomically(file, text);
 }
 
 std::string json_run(const BarCaseSettings& s, const BarResult& r, const std::string& indent) {
@@ -111,15 +115,18 @@ std::string json_run(const BarCaseSettings& s, const BarResult& r, const std::st
 }
 
 int run_single(const Options& o, const std::filesystem::path& out) {
-  const BarResult result = run_bar(o.bar);
-  for (const auto& p : result.profiles) {
+  BarCaseSettings settings = o.bar;
+  // Each profile is written as soon as it is sampled: a later divergence keeps it.
+  settings.on_profile = [&](const BarProfile& p) {
     write_profile(out / fmt::format("profile_t{:.6f}ms.csv", p.time * 1e3), p);
     if (!o.quiet)
       fmt::print("t = {:7.3f} ms   L2 error: velocity {:.3e} %   stress {:.3e} %\n", p.time * 1e3,
                  p.velocity_error_percent, p.stress_error_percent);
-  }
-  auto json = fmt::output_file((out / "summary.json").string());
-  json.print("{{\"case\": \"bar\", \"run\": {}}}\n", json_run(o.bar, result, ""));
+  };
+  const BarResult result = run_bar(settings);
+  write_file_atomically(out / "summary.json",
+                        fmt::format("{{\"case\": \"bar\", \"run\": {}}}\n",
+                                    json_run(o.bar, result, "")));
   if (!o.quiet)
     fmt::print("{} steps, {:.3f} s wall, {:.3e} particle-steps/s on {} thread(s); output in {}\n",
                result.steps, result.wall_seconds, result.particle_steps_per_second,
@@ -140,8 +147,7 @@ int run_table1(const Options& o, const std::filesystem::path& out) {
   fmt::print("{:>6} {:>9} {:>11} {:>16} {:>16} {:>11}\n", "alpha", "2h (m)", "neighbours",
              "ours t=3.75 ms", "ours t=7.5 ms", "paper");
   std::string runs;
-  auto csv = fmt::output_file((out / "table1.csv").string());
-  csv.print("alpha,support_radius,error_percent_3p75ms,error_percent_7p5ms,paper_percent\n");
+  std::string csv = "alpha,support_radius,error_percent_3p75ms,error_percent_7p5ms,paper_percent\n";
   for (const Row& row : rows) {
     BarCaseSettings s = o.bar;
     s.alpha = row.alpha;
@@ -152,7 +158,7 @@ int run_table1(const Options& o, const std::filesystem::path& out) {
     fmt::print("{:>6.1f} {:>9.3f} {:>11} {:>16.3e} {:>16.3e} {:>11}\n", row.alpha,
                2.0 * row.alpha * s.spacing(), neighbours, r.profiles[0].velocity_error_percent,
                r.profiles[1].velocity_error_percent, row.paper);
-    csv.print("{},{},{:.6e},{:.6e},{}\n", row.alpha, 2.0 * row.alpha * s.spacing(),
+    fmt::format_to(std::back_inserter(csv), "{},{},{:.6e},{:.6e},{}\n", row.alpha, 2.0 * row.alpha * s.spacing(),
               r.profiles[0].velocity_error_percent, r.profiles[1].velocity_error_percent,
               row.paper);
     for (const auto& p : r.profiles)
@@ -160,8 +166,9 @@ int run_table1(const Options& o, const std::filesystem::path& out) {
     if (!runs.empty()) runs += ",\n  ";
     runs += json_run(s, r, "  ");
   }
-  auto json = fmt::output_file((out / "summary.json").string());
-  json.print("{{\"case\": \"bar_table1\", \"runs\": [\n  {}\n]}}\n", runs);
+  write_file_atomically(out / "table1.csv", csv);
+  write_file_atomically(out / "summary.json",
+                        fmt::format("{{\"case\": \"bar_table1\", \"runs\": [\n  {}\n]}}\n", runs));
   fmt::print("\nProfiles, table1.csv and summary.json in {}\n", out.string());
   return 0;
 }
@@ -200,6 +207,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--out", o.out, "output directory")->capture_default_str();
   app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");
+  app.add_flag("--force", o.bar.force,
+               "run a CFL above the stability limit 1 anyway (it diverges: exit status 3)");
   app.add_flag("--quiet", o.quiet, "print nothing but errors");
   if (const auto stop = cli::parse(app, argc, argv)) return *stop;
 
@@ -215,6 +224,12 @@ int main(int argc, char** argv) {
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "tsph-bar: error: {}\n", e.what());
     return kExitBadInput;
+  } catch (const SolutionDiverged& e) {
+    fmt::print(stderr, "tsph-bar: stopped: {}\n", e.what());
+    return cli::kExitDiverged;
+  } catch (const OutputError& e) {
+    fmt::print(stderr, "tsph-bar: stopped: {}\n", e.what());
+    return cli::kExitFailure;
   } catch (const std::exception& e) {
     fmt::print(stderr, "tsph-bar: failed: {}\n", e.what());
     return cli::kExitFailure;

@@ -6,15 +6,17 @@
 // Writes axis.csv (x, u_y, exact u_y), particles.csv (every real particle: initial
 // position, displacement, stress) and summary.json (tip deflection against the exact
 // value, L2 error along the axis, steps, wall time, particle-steps per second).
-// Exit status: 0 success (converged), 2 bad input, 3 not converged or diverged,
-// 1 other failure.
+// Exit status: 0 success (converged), 2 bad input, 3 not converged or diverged (the
+// diagnosis on stderr; no output file is written from a diverged state), 1 other
+// failure (an output write).
 #include "engine/cantilever_case.hpp"
+#include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
 #include "tools/cli_common.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
-#include <fmt/os.h>
+#include <fmt/format.h>
 
 #include <chrono>
 #include <cmath>
@@ -43,6 +45,7 @@ struct Options {
   std::string out = "out/cantilever";
   int threads = 0;
   bool quiet = false;
+  bool force = false;
 };
 
 template <int Dim>
@@ -62,6 +65,7 @@ int run(const Options& o) {
   s.plane_mode = o.plane == "strain" ? PlaneMode::plane_strain : PlaneMode::plane_stress;
   s.alpha = o.alpha;
   s.cfl = o.cfl;
+  s.force = o.force;
   s.kernel = *parse_kernel_kind(o.kernel);
   s.kinematics = o.kinematics == "small_strain" ? Kinematics::small_strain
                                                 : Kinematics::updated_lagrangian;
@@ -98,21 +102,21 @@ int run(const Options& o) {
 
   const std::filesystem::path out(o.out);
   {
-    auto axis = fmt::output_file((out / "axis.csv").string());
-    axis.print("x,uy,uy_exact\n");
+    std::string axis = "x,uy,uy_exact\n";
     for (std::size_t k = 0; k < r.axis_x.size(); ++k)
-      axis.print("{:.17g},{:.17g},{:.17g}\n", r.axis_x[k], r.axis_uy[k], r.axis_exact[k]);
-    auto particles = fmt::output_file((out / "particles.csv").string());
-    particles.print("x0,y0,z0,ux,uy,uz,s0,s1,s2,s3,s4,s5\n");
+      fmt::format_to(std::back_inserter(axis), "{:.17g},{:.17g},{:.17g}\n", r.axis_x[k],
+                     r.axis_uy[k], r.axis_exact[k]);
+    write_file_atomically(out / "axis.csv", axis);
+    std::string particles = "x0,y0,z0,ux,uy,uz,s0,s1,s2,s3,s4,s5\n";
     for (std::size_t i = 0; i < r.initial_position.size(); ++i) {
       const auto& x = r.initial_position[i];
       const auto& u = r.displacement[i];
       const auto& sg = r.stress[i];
-      particles.print("{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n",
+      fmt::format_to(std::back_inserter(particles), "{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n",
                       x[0], x[1], x[2], u[0], u[1], u[2], sg[0], sg[1], sg[2], sg[3], sg[4], sg[5]);
     }
-    auto json = fmt::output_file((out / "summary.json").string());
-    json.print(
+    write_file_atomically(out / "particles.csv", particles);
+    write_file_atomically(out / "summary.json", fmt::format(
         "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
         " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
         " \"hourglass\": {}, \"real_particles\": {}, \"virtual_particles\": {},\n"
@@ -125,7 +129,7 @@ int run(const Options& o) {
         s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, r.real_particles, r.virtual_particles,
         r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
         r.tip_error_percent, r.axis_l2_error_percent, r.wall_seconds, r.particle_steps_per_second,
-        thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks);
+        thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks));
   }
   if (!o.quiet) {
     fmt::print("{} after {} steps (t = {:.3f} s), {:.1f} s wall, {:.3e} particle-steps/s\n",
@@ -172,6 +176,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--out", o.out, "output directory")->capture_default_str();
   app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");
+  app.add_flag("--force", o.force,
+               "run a CFL above the stability limit 1 anyway (it diverges: exit status 3)");
   app.add_flag("--quiet", o.quiet, "print nothing but errors");
   if (const auto stop = cli::parse(app, argc, argv)) return *stop;
   if (o.nodes_x < 3) {
@@ -185,9 +191,12 @@ int main(int argc, char** argv) {
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "tsph-cantilever: error: {}\n", e.what());
     return kExitBadInput;
-  } catch (const std::runtime_error& e) {
+  } catch (const SolutionDiverged& e) {
     fmt::print(stderr, "tsph-cantilever: stopped: {}\n", e.what());
-    return kExitNotConverged;
+    return cli::kExitDiverged;
+  } catch (const OutputError& e) {
+    fmt::print(stderr, "tsph-cantilever: stopped: {}\n", e.what());
+    return cli::kExitFailure;
   } catch (const std::exception& e) {
     fmt::print(stderr, "tsph-cantilever: failed: {}\n", e.what());
     return cli::kExitFailure;
