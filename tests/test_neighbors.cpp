@@ -88,6 +88,18 @@ NeighborList expect_cell_list_matches_brute_force(const PointsView<Dim>& query,
   EXPECT_TRUE(queried == reference) << "radius " << radius;
   const NeighborList tree = kd_tree_neighbors<Dim>(query, source, radius);
   EXPECT_TRUE(tree == reference) << "kd-tree, radius " << radius;
+  // Rows for every third query point only: those equal the reference, the rest are empty.
+  std::vector<std::uint32_t> rows;
+  for (std::size_t i = 0; i < query.count; i += 3) rows.push_back(static_cast<std::uint32_t>(i));
+  const NeighborList subset = cells.query_subset(query, rows, false);
+  EXPECT_EQ(subset.query_count(), query.count);
+  for (std::size_t i = 0; i < query.count; ++i) {
+    const auto row = subset.neighbors(i);
+    const std::vector<std::uint32_t> got(row.begin(), row.end());
+    std::vector<std::uint32_t> want;
+    if (i % 3 == 0) want.assign(reference.neighbors(i).begin(), reference.neighbors(i).end());
+    EXPECT_EQ(got, want) << "subset row " << i << ", radius " << radius;
+  }
   return reference;
 }
 
@@ -386,6 +398,32 @@ TEST(CellList, OverflowingBoundingBoxIsRefused) {
   points.count = 2;
   points.coordinate[0] = x.data();
   EXPECT_THROW(cell_list_neighbors<1>(points, points, 1.0), std::invalid_argument);
+}
+
+// A set queried against itself for a few rows without the point itself (the
+// boundary particles' same-set list of the stepper); a row out of range is refused.
+TYPED_TEST(NeighborTest, SubsetOfSameSetExcludesSelf) {
+  constexpr int dim = TypeParam::value;
+  const Points<dim> points = random_points<dim>(300, -1.0, 1.0, 41);
+  const double radius = dim == 1 ? 0.05 : dim == 2 ? 0.2 : 0.4;
+  const NeighborList reference = brute_force_neighbors<dim>(points.view(), points.view(), radius);
+  const std::vector<std::uint32_t> rows = {299, 0, 17, 150};
+  const CellList<dim> cells(points.view(), radius);
+  const NeighborList subset = cells.query_subset(points.view(), rows, true);
+  expect_well_formed(subset, points.size(), points.size());
+  std::size_t filled = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    std::vector<std::uint32_t> want;
+    if (std::find(rows.begin(), rows.end(), i) != rows.end())
+      for (std::uint32_t j : reference.neighbors(i))
+        if (j != i) want.push_back(j);
+    const auto row = subset.neighbors(i);
+    EXPECT_EQ(std::vector<std::uint32_t>(row.begin(), row.end()), want) << "row " << i;
+    filled += want.size();
+  }
+  EXPECT_GT(filled, 0u);
+  const std::vector<std::uint32_t> bad = {300};
+  EXPECT_THROW(cells.query_subset(points.view(), bad, true), std::invalid_argument);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@ packages=(
   libfmt-dev                # formatted output
   libcli11-dev              # command-line parsing
   python3-numpy python3-matplotlib  # tools/plot_*.py: figures against the exact solutions
+  valgrind                  # callgrind instruction counts: tools/check_timing.py (CI regression timing)
 )
 
 missing=()
