@@ -28,9 +28,11 @@ LatticeBox<Dim> block_box(std::int64_t particles) {
   return box;
 }
 
-template <int Dim>
+/// `reorder(set, support radius)` may permute each set before the solver is built.
+template <int Dim, class Reorder = void (*)(ParticleSet<Dim>&, double)>
 TaylorSph<Dim> make_block(std::int64_t particles, double alpha,
-                          Kinematics kinematics = Kinematics::updated_lagrangian) {
+                          Kinematics kinematics = Kinematics::updated_lagrangian,
+                          Reorder reorder = [](ParticleSet<Dim>&, double) {}) {
   const LatticeBox<Dim> box = block_box<Dim>(particles);
   ParticleSet<Dim> real = make_real_lattice(box, kBlockDensity);
   ParticleSet<Dim> virtual_particles = make_virtual_lattice(box, kBlockDensity);
@@ -46,6 +48,8 @@ TaylorSph<Dim> make_block(std::int64_t particles, double alpha,
                             std::cos(2.0 * real.position[Dim - 1][i]);
   SolverSettings<Dim> settings;
   settings.smoothing_length = alpha * box.spacing;
+  reorder(real, kSupportFactor * settings.smoothing_length);
+  reorder(virtual_particles, kSupportFactor * settings.smoothing_length);
   settings.kinematics = kinematics;
   return TaylorSph<Dim>(std::move(real), std::move(virtual_particles),
                         LinearElastic<Dim>(kBlockYoung, 0.3, kBlockDensity), settings,

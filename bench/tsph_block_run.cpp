@@ -3,10 +3,14 @@
 // workload (tools/check_timing.py, under callgrind).
 //
 //   tsph-block-run --dim 2 --particles 10000000 --steps 3 [--threads 2] [--alpha 1.2]
-//                  [--small-strain]
+//                  [--small-strain] [--order none|shuffled|cells]
 #include "bench/block_case.hpp"
 #include "engine/memory_estimate.hpp"
 #include "engine/parallel.hpp"
+#include "neighbor/spatial_order.hpp"
+
+#include <algorithm>
+#include <random>
 
 #include <chrono>
 #include <cstdio>
@@ -25,13 +29,16 @@ struct Options {
   int threads = 0;
   double alpha = 1.2;
   Kinematics kinematics = Kinematics::updated_lagrangian;
+  /// none: lattice order (axis 0 fastest); shuffled: a random order (what locality is
+  /// worth); cells: shuffled, then sorted by neighbour-search cell (neighbor/spatial_order.hpp).
+  std::string order = "none";
 };
 
 [[noreturn]] void usage_error(const std::string& message) {
   std::fprintf(stderr, "tsph-block-run: error: %s\n", message.c_str());
   std::fprintf(stderr,
                "usage: tsph-block-run [--dim 2|3] [--particles N] [--steps K] [--threads T] "
-               "[--alpha A] [--small-strain]\n");
+               "[--alpha A] [--small-strain] [--order none|shuffled|cells]\n");
   std::exit(2);
 }
 
@@ -54,7 +61,17 @@ int run(const Options& o) {
     return 2;
   }
   const auto start = std::chrono::steady_clock::now();
-  auto solver = bench::make_block<Dim>(o.particles, o.alpha, o.kinematics);
+  auto reorder = [&o](ParticleSet<Dim>& set, double radius) {
+    if (o.order == "none") return;
+    std::vector<std::uint32_t> order(set.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
+    std::shuffle(order.begin(), order.end(), std::mt19937_64(12345));
+    set.permute(order);
+    // Cells of a quarter of the support radius (0.6 dx at alpha 1.2): at most one
+    // lattice particle per cell, so a lattice gets back its row order.
+    if (o.order == "cells") set.permute(cell_order<Dim>(points_of<Dim>(set), 0.25 * radius));
+  };
+  auto solver = bench::make_block<Dim>(o.particles, o.alpha, o.kinematics, reorder);
   const auto built = std::chrono::steady_clock::now();
   const double dt = bench::block_time_step(solver, o.alpha);
   run_steps(solver, dt, o.steps);
@@ -80,6 +97,13 @@ int main(int argc, char** argv) {
   Options o;
   for (int a = 1; a < argc; ++a) {
     const std::string key = argv[a];
+    if (key == "--order") {
+      if (a + 1 >= argc) usage_error("option --order needs a value");
+      o.order = argv[++a];
+      if (o.order != "none" && o.order != "shuffled" && o.order != "cells")
+        usage_error("order = '" + o.order + "' is invalid: must be one of: none, shuffled, cells");
+      continue;
+    }
     if (key == "--small-strain") {
       o.kinematics = Kinematics::small_strain;
       continue;

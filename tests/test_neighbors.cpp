@@ -7,6 +7,7 @@
 #include "neighbor/brute_force.hpp"
 #include "neighbor/cell_list.hpp"
 #include "neighbor/kd_tree.hpp"
+#include "neighbor/spatial_order.hpp"
 
 #include <gtest/gtest.h>
 
@@ -424,6 +425,41 @@ TYPED_TEST(NeighborTest, SubsetOfSameSetExcludesSelf) {
   EXPECT_GT(filled, 0u);
   const std::vector<std::uint32_t> bad = {300};
   EXPECT_THROW(cells.query_subset(points.view(), bad, true), std::invalid_argument);
+}
+
+// Cell order: a permutation (every index once) that sorts by cell, axis 0 fastest; on a
+// shuffled lattice with cells smaller than the spacing it gives back the lattice order.
+TYPED_TEST(NeighborTest, CellOrderRestoresAShuffledLattice) {
+  constexpr int dim = TypeParam::value;
+  LatticeBox<dim> box;
+  for (int d = 0; d < dim; ++d) box.node_count[d] = 7 + d;
+  box.spacing = 0.1;
+  ParticleSet<dim> set = make_real_lattice(box, 1.0);
+  std::vector<std::uint32_t> shuffle(set.size());
+  for (std::size_t i = 0; i < shuffle.size(); ++i) shuffle[i] = static_cast<std::uint32_t>(i);
+  std::shuffle(shuffle.begin(), shuffle.end(), std::mt19937_64(3));
+  set.permute(shuffle);
+  const std::vector<std::uint32_t> order = cell_order<dim>(points_of<dim>(set), 0.06);
+  std::vector<std::uint32_t> seen(order);
+  std::sort(seen.begin(), seen.end());
+  for (std::size_t i = 0; i < seen.size(); ++i) ASSERT_EQ(seen[i], i);
+  set.permute(order);
+  for (std::size_t i = 0; i < set.size(); ++i) EXPECT_EQ(set.id[i], i) << "position " << i;
+  // Coarse cells: sorted by cell key, ties in their previous order (stable).
+  const std::vector<std::uint32_t> coarse = cell_order<dim>(points_of<dim>(set), 0.25);
+  auto cell_key = [&](std::uint32_t i) {
+    std::int64_t key = 0;
+    for (int d = dim - 1; d >= 0; --d)
+      key = key * 1000 + static_cast<std::int64_t>(std::floor(set.position[d][i] / 0.25));
+    return key;
+  };
+  for (std::size_t k = 1; k < coarse.size(); ++k) {
+    const auto a = cell_key(coarse[k - 1]), b = cell_key(coarse[k]);
+    EXPECT_TRUE(a < b || (a == b && coarse[k - 1] < coarse[k])) << "position " << k;
+  }
+  const PointsView<dim> none{};
+  EXPECT_TRUE(cell_order<dim>(none, 1.0).empty());
+  EXPECT_THROW(cell_order<dim>(points_of<dim>(set), 0.0), std::invalid_argument);
 }
 
 }  // namespace
