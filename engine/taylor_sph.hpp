@@ -131,19 +131,6 @@ Matrix<Dim> normal_frame(const Vector<Dim>& n) {
   return frame;
 }
 
-/// Removes i from row i of a same-set neighbour list.
-inline NeighborList without_self(const NeighborList& list) {
-  NeighborList out;
-  out.offsets.assign(list.offsets.size(), 0);
-  out.indices.reserve(list.indices.size());
-  for (std::size_t i = 0; i < list.query_count(); ++i) {
-    for (std::uint32_t j : list.neighbors(i))
-      if (j != i) out.indices.push_back(j);
-    out.offsets[i + 1] = out.indices.size();
-  }
-  return out;
-}
-
 /// A particle is on a surface when none of its real neighbours lies within 60 degrees
 /// of the outward kernel normal -sum_J V_J grad W_IJ (cosine below this value).
 inline constexpr double kSurfaceCosine = 0.5;
@@ -181,9 +168,14 @@ inline constexpr std::array<int, 2> kRunawayWindows = {20, 100};
 inline constexpr double kRunawayJumpFactor = 30.0;
 inline constexpr int kRunawayJumpSteps = 10;
 inline constexpr std::int64_t kRunawayJumpAfter = 1000;
+/// Benchmarks time the stages of a step one by one (defined in bench/bench_step_nd.cpp).
+template <int Dim>
+struct StepStages;
 
 template <int Dim>
 class TaylorSph {
+  friend struct StepStages<Dim>;
+
  public:
   using Vec = Vector<Dim>;
   using Mat = Matrix<Dim>;
@@ -254,6 +246,8 @@ class TaylorSph {
   const SolverSettings<Dim>& settings() const { return settings_; }
   const SolverCounters& counters() const { return counters_; }
   const NeighborList& virtual_from_real() const { return virtual_from_real_; }
+  /// In updated-Lagrangian runs this list is built in the full step and released by the
+  /// rebuild at the end of the step (see lists_used_once()): empty between steps.
   const NeighborList& real_from_virtual() const { return real_from_virtual_; }
   /// Boundary particles (indices into real()) and their outward unit normals.
   const std::vector<std::uint32_t>& boundary_particles() const { return boundary_particles_; }
@@ -556,6 +550,11 @@ class TaylorSph {
     const PointsView<Dim> source_points = points_of<Dim>(virtual_);
     const double h = settings_.smoothing_length;
     const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
+    if (lists_used_once()) {  // the half step's list is done with: one list at a time
+      virtual_from_real_ = NeighborList{};
+      real_from_virtual_ = NeighborList{};
+      real_from_virtual_ = CellList<Dim>(source_points, support_radius()).query(points_of<Dim>(real_));
+    }
     add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
         target.count, [&](std::size_t r, StencilWeights<Dim>& w, StencilCounts& counts) {
           for (int d = 0; d < Dim; ++d) previous_velocity_[d][r] = target.velocity[d][r];
@@ -788,16 +787,31 @@ class TaylorSph {
       });
   }
 
+  /// In updated-Lagrangian runs each half-step list is rebuilt every step and used once,
+  /// so only one is held at a time: virtual_from_real_ from the rebuild to the half
+  /// step, real_from_virtual_ built at the start of the full step. This halves the
+  /// memory of the lists (bench/RESULTS.md, memory) at no cost in time.
+  bool lists_used_once() const { return settings_.kinematics == Kinematics::updated_lagrangian; }
+
   /// Neighbour lists of both half-steps and of the real set, and the boundary normals
   /// n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body).
   void rebuild_neighbors() {
     const double radius = support_radius();
     const PointsView<Dim> real_points = points_of<Dim>(real_);
     const PointsView<Dim> virtual_points = points_of<Dim>(virtual_);
-    const CellList<Dim> real_cells(real_points, radius);
-    virtual_from_real_ = real_cells.query(virtual_points);
-    real_from_virtual_ = CellList<Dim>(virtual_points, radius).query(real_points);
-    if (!boundary_particles_.empty()) real_from_real_ = without_self(real_cells.query(real_points));
+    // The old lists are released first, so that two generations never coexist (memory).
+    virtual_from_real_ = NeighborList{};
+    real_from_virtual_ = NeighborList{};
+    real_from_real_ = NeighborList{};
+    {
+      const CellList<Dim> real_cells(real_points, radius);
+      virtual_from_real_ = real_cells.query(virtual_points);
+      // Same-set rows only where they are used: the boundary particles (rows of the other
+      // real particles are empty, so the list is still indexed by real particle).
+      real_from_real_ = real_cells.query_subset(real_points, boundary_particles_, true);
+    }
+    if (!lists_used_once())
+      real_from_virtual_ = CellList<Dim>(virtual_points, radius).query(real_points);
     visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) {
       const bool first_build = counters_.neighbor_builds == 0;
       if (first_build) boundary_on_surface_.assign(boundary_particles_.size(), 1);
@@ -879,7 +893,7 @@ class TaylorSph {
 
   NeighborList virtual_from_real_;  ///< rows: virtual particles; entries: real
   NeighborList real_from_virtual_;  ///< rows: real particles; entries: virtual
-  NeighborList real_from_real_;     ///< rows: real particles; entries: real, self excluded
+  NeighborList real_from_real_;     ///< rows: real particles (only boundary ones filled); entries: real, self excluded
 
   std::vector<std::uint32_t> boundary_particles_;  ///< real indices with a condition
   std::vector<std::int32_t> boundary_slot_;        ///< real index -> slot, or -1

@@ -55,15 +55,18 @@ struct StencilStatus {
   bool gradient_fallback = false;        ///< correction matrix inverted by pseudo-inverse
 };
 
-/// Per-neighbour weights of one query point; reused between queries (scratch).
+/// Per-neighbour weights of one query point, sized to its row; reused between queries
+/// (scratch, one per thread: capacity is kept, so the loops allocate almost nothing).
 template <int Dim>
 struct StencilWeights {
   std::vector<double> value;                   ///< V_J Wn_IJ
   std::vector<Eigen::Matrix<double, Dim, 1>> gradient;  ///< V_J Gn_IJ
+  std::vector<Eigen::Matrix<double, Dim, 1>> scaled_offset;  ///< (x_J - x_I) / h
 
   void resize(std::size_t n) {
     value.resize(n);
     gradient.resize(n);
+    scaled_offset.resize(n);
   }
 };
 
@@ -119,27 +122,43 @@ StencilStatus compute_stencil(const Kernel& kernel, double h,
   weights.resize(n);
 
   // Pass 1: kernel values, raw gradients and the moment sums.
+  // The moment sums are accumulated as scalars (upper triangles), which the compiler
+  // keeps in registers; the matrices are filled after the loop.
   Mat correction = Mat::Zero();  // sum_J V_J grad_I W_IJ (x) (x_J - x_I)
-  Moments moments = Moments::Zero();  // [1; d/h] [1; d/h]^T weighted by V_J W_IJ
+  double kernel_sum = 0.0;       // sum_J V_J W_IJ
+  Vec first_moment = Vec::Zero();  // sum_J V_J W_IJ d_J, d_J = (x_J - x_I) / h
+  Mat second_moment = Mat::Zero();  // sum_J V_J W_IJ d_J d_J^T (upper triangle)
   for (std::size_t k = 0; k < n; ++k) {
     const std::uint32_t j = neighbors[k];
-    const Vec offset = source.point(j) - x_query;  // x_J - x_I
+    Vec offset;  // x_J - x_I
+    for (int d = 0; d < Dim; ++d) offset[d] = source.coordinate[d][j] - x_query[d];
     const double r = offset.norm();
     const double volume = source_volume[j];
     const double w = volume * kernel.value(r, h);
     // grad_I W(x_I - x_J) = W'(r) (x_I - x_J) / r
     const Vec grad = r > 0.0 ? Vec((-volume * kernel.derivative(r, h) / r) * offset) : Vec::Zero();
+    const Vec scaled = offset / h;
     weights.value[k] = w;
     weights.gradient[k] = grad;
-    correction.noalias() += grad * offset.transpose();
-    Eigen::Matrix<double, Dim + 1, 1> basis;
-    basis[0] = 1.0;
-    basis.template tail<Dim>() = offset / h;
-    moments.noalias() += w * basis * basis.transpose();
+    weights.scaled_offset[k] = scaled;
+    for (int a = 0; a < Dim; ++a)
+      for (int b = 0; b < Dim; ++b) correction(a, b) += grad[a] * offset[b];
+    kernel_sum += w;
+    for (int a = 0; a < Dim; ++a) {
+      first_moment[a] += w * scaled[a];
+      for (int b = a; b < Dim; ++b) second_moment(a, b) += w * scaled[a] * scaled[b];
+    }
+  }
+  // [1; d] [1; d]^T weighted by V_J W_IJ.
+  Moments moments;
+  moments(0, 0) = kernel_sum;
+  for (int a = 0; a < Dim; ++a) {
+    moments(0, a + 1) = moments(a + 1, 0) = first_moment[a];
+    for (int b = a; b < Dim; ++b)
+      moments(a + 1, b + 1) = moments(b + 1, a + 1) = second_moment(a, b);
   }
 
   // Interpolation weights.
-  const double kernel_sum = moments(0, 0);
   if (!(kernel_sum > 0.0)) {
     status.no_neighbors = true;
     for (std::size_t k = 0; k < n; ++k) weights.value[k] = 0.0;
@@ -150,16 +169,18 @@ StencilStatus compute_stencil(const Kernel& kernel, double h,
       if (linear_ok) {
         // Coefficients (a, b) with moments * (a, b) = e_0: reproduces 1 and x.
         const Eigen::Matrix<double, Dim + 1, 1> coefficients = inverse.col(0);
-        for (std::size_t k = 0; k < n; ++k) {
-          const Vec offset = (source.point(neighbors[k]) - x_query) / h;
-          weights.value[k] *= coefficients[0] + coefficients.template tail<Dim>().dot(offset);
-        }
+        const double a = coefficients[0];
+        const Vec b = coefficients.template tail<Dim>();
+        for (std::size_t k = 0; k < n; ++k)
+          weights.value[k] *= a + b.dot(weights.scaled_offset[k]);
       } else {
         status.interpolation_fallback = true;
       }
     }
-    if (!linear_ok)
-      for (std::size_t k = 0; k < n; ++k) weights.value[k] /= kernel_sum;
+    if (!linear_ok) {
+      const double inverse_sum = 1.0 / kernel_sum;
+      for (std::size_t k = 0; k < n; ++k) weights.value[k] *= inverse_sum;
+    }
   }
 
   // Gradient weights: L_I grad_I W_IJ.

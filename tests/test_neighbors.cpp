@@ -7,6 +7,7 @@
 #include "neighbor/brute_force.hpp"
 #include "neighbor/cell_list.hpp"
 #include "neighbor/kd_tree.hpp"
+#include "neighbor/spatial_order.hpp"
 
 #include <gtest/gtest.h>
 
@@ -88,6 +89,18 @@ NeighborList expect_cell_list_matches_brute_force(const PointsView<Dim>& query,
   EXPECT_TRUE(queried == reference) << "radius " << radius;
   const NeighborList tree = kd_tree_neighbors<Dim>(query, source, radius);
   EXPECT_TRUE(tree == reference) << "kd-tree, radius " << radius;
+  // Rows for every third query point only: those equal the reference, the rest are empty.
+  std::vector<std::uint32_t> rows;
+  for (std::size_t i = 0; i < query.count; i += 3) rows.push_back(static_cast<std::uint32_t>(i));
+  const NeighborList subset = cells.query_subset(query, rows, false);
+  EXPECT_EQ(subset.query_count(), query.count);
+  for (std::size_t i = 0; i < query.count; ++i) {
+    const auto row = subset.neighbors(i);
+    const std::vector<std::uint32_t> got(row.begin(), row.end());
+    std::vector<std::uint32_t> want;
+    if (i % 3 == 0) want.assign(reference.neighbors(i).begin(), reference.neighbors(i).end());
+    EXPECT_EQ(got, want) << "subset row " << i << ", radius " << radius;
+  }
   return reference;
 }
 
@@ -386,6 +399,67 @@ TEST(CellList, OverflowingBoundingBoxIsRefused) {
   points.count = 2;
   points.coordinate[0] = x.data();
   EXPECT_THROW(cell_list_neighbors<1>(points, points, 1.0), std::invalid_argument);
+}
+
+// A set queried against itself for a few rows without the point itself (the
+// boundary particles' same-set list of the stepper); a row out of range is refused.
+TYPED_TEST(NeighborTest, SubsetOfSameSetExcludesSelf) {
+  constexpr int dim = TypeParam::value;
+  const Points<dim> points = random_points<dim>(300, -1.0, 1.0, 41);
+  const double radius = dim == 1 ? 0.05 : dim == 2 ? 0.2 : 0.4;
+  const NeighborList reference = brute_force_neighbors<dim>(points.view(), points.view(), radius);
+  const std::vector<std::uint32_t> rows = {299, 0, 17, 150};
+  const CellList<dim> cells(points.view(), radius);
+  const NeighborList subset = cells.query_subset(points.view(), rows, true);
+  expect_well_formed(subset, points.size(), points.size());
+  std::size_t filled = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    std::vector<std::uint32_t> want;
+    if (std::find(rows.begin(), rows.end(), i) != rows.end())
+      for (std::uint32_t j : reference.neighbors(i))
+        if (j != i) want.push_back(j);
+    const auto row = subset.neighbors(i);
+    EXPECT_EQ(std::vector<std::uint32_t>(row.begin(), row.end()), want) << "row " << i;
+    filled += want.size();
+  }
+  EXPECT_GT(filled, 0u);
+  const std::vector<std::uint32_t> bad = {300};
+  EXPECT_THROW(cells.query_subset(points.view(), bad, true), std::invalid_argument);
+}
+
+// Cell order: a permutation (every index once) that sorts by cell, axis 0 fastest; on a
+// shuffled lattice with cells smaller than the spacing it gives back the lattice order.
+TYPED_TEST(NeighborTest, CellOrderRestoresAShuffledLattice) {
+  constexpr int dim = TypeParam::value;
+  LatticeBox<dim> box;
+  for (int d = 0; d < dim; ++d) box.node_count[d] = 7 + d;
+  box.spacing = 0.1;
+  ParticleSet<dim> set = make_real_lattice(box, 1.0);
+  std::vector<std::uint32_t> shuffle(set.size());
+  for (std::size_t i = 0; i < shuffle.size(); ++i) shuffle[i] = static_cast<std::uint32_t>(i);
+  std::shuffle(shuffle.begin(), shuffle.end(), std::mt19937_64(3));
+  set.permute(shuffle);
+  const std::vector<std::uint32_t> order = cell_order<dim>(points_of<dim>(set), 0.06);
+  std::vector<std::uint32_t> seen(order);
+  std::sort(seen.begin(), seen.end());
+  for (std::size_t i = 0; i < seen.size(); ++i) ASSERT_EQ(seen[i], i);
+  set.permute(order);
+  for (std::size_t i = 0; i < set.size(); ++i) EXPECT_EQ(set.id[i], i) << "position " << i;
+  // Coarse cells: sorted by cell key, ties in their previous order (stable).
+  const std::vector<std::uint32_t> coarse = cell_order<dim>(points_of<dim>(set), 0.25);
+  auto cell_key = [&](std::uint32_t i) {
+    std::int64_t key = 0;
+    for (int d = dim - 1; d >= 0; --d)
+      key = key * 1000 + static_cast<std::int64_t>(std::floor(set.position[d][i] / 0.25));
+    return key;
+  };
+  for (std::size_t k = 1; k < coarse.size(); ++k) {
+    const auto a = cell_key(coarse[k - 1]), b = cell_key(coarse[k]);
+    EXPECT_TRUE(a < b || (a == b && coarse[k - 1] < coarse[k])) << "position " << k;
+  }
+  const PointsView<dim> none{};
+  EXPECT_TRUE(cell_order<dim>(none, 1.0).empty());
+  EXPECT_THROW(cell_order<dim>(points_of<dim>(set), 0.0), std::invalid_argument);
 }
 
 }  // namespace

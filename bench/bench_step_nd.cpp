@@ -1,0 +1,86 @@
+// Taylor-SPH in 2D and 3D (bench/block_case.hpp: a block held at one end, updated
+// Lagrangian, alpha = 1.2 unless said), in real-particle-steps per second, real time:
+//   Step    the whole step: boundary pre-pass, half step, full step, boundary
+//           conditions, move, neighbour rebuild (cell list) and normals;
+//   Half    seed eq. (3) alone (real -> virtual), lists kept (small strain);
+//   Full    seed eq. (4) alone (virtual -> real), lists kept (small strain);
+//   Rebuild all three neighbour lists and the boundary normals alone.
+// Arguments: particles, threads.
+#include "bench/block_case.hpp"
+#include "engine/parallel.hpp"
+
+#include <benchmark/benchmark.h>
+
+namespace tsph {
+
+template <int Dim>
+struct StepStages {
+  static void half(TaylorSph<Dim>& s, double dt) {
+    visit_kernel<Dim>(s.settings_.kernel, [&](const auto& kernel) { s.half_step(kernel, dt); });
+  }
+  static void full(TaylorSph<Dim>& s, double dt) {
+    visit_kernel<Dim>(s.settings_.kernel, [&](const auto& kernel) { s.full_step(kernel, dt); });
+  }
+  static void rebuild(TaylorSph<Dim>& s) { s.rebuild_neighbors(); }
+};
+
+}  // namespace tsph
+
+namespace {
+
+using namespace tsph;
+constexpr double kAlpha = 1.2;
+
+enum class Stage { step, half, full, rebuild };
+
+template <int Dim, Stage stage>
+void BM_Stage(benchmark::State& state) {
+  const int before = thread_count();
+  set_thread_count(static_cast<int>(state.range(1)));
+  // The stages alone run in small strain, where the lists are built once and kept;
+  // the whole step runs updated Lagrangian (every step rebuilds them).
+  auto solver = bench::make_block<Dim>(
+      state.range(0), kAlpha,
+      stage == Stage::step ? Kinematics::updated_lagrangian : Kinematics::small_strain);
+  const double dt = bench::block_time_step(solver, kAlpha);
+  for (auto _ : state) {
+    if constexpr (stage == Stage::step) solver.step(dt);
+    else if constexpr (stage == Stage::half) StepStages<Dim>::half(solver, dt);
+    else if constexpr (stage == Stage::full) StepStages<Dim>::full(solver, dt);
+    else StepStages<Dim>::rebuild(solver);
+  }
+  const auto real_count = static_cast<std::int64_t>(solver.real().size());
+  state.SetItemsProcessed(state.iterations() * real_count);
+  state.counters["real"] = static_cast<double>(real_count);
+  state.counters["threads"] = static_cast<double>(state.range(1));
+  state.counters["pairs_per_virtual"] =
+      static_cast<double>(solver.virtual_from_real().pair_count()) /
+      static_cast<double>(solver.virtual_particles().size());
+  set_thread_count(before);
+}
+
+void sizes_2d(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"particles", "threads"})
+      ->ArgsProduct({{10'000, 100'000, 1'000'000, 10'000'000}, {1, 2}})
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond);
+}
+void sizes_3d(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"particles", "threads"})
+      ->ArgsProduct({{10'000, 100'000, 1'000'000}, {1, 2}})
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond);
+}
+
+BENCHMARK(BM_Stage<2, Stage::step>)->Name("Step2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::half>)->Name("Half2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::full>)->Name("Full2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::rebuild>)->Name("Rebuild2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<3, Stage::step>)->Name("Step3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::half>)->Name("Half3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::full>)->Name("Full3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::rebuild>)->Name("Rebuild3D")->Apply(sizes_3d);
+
+}  // namespace
+
+BENCHMARK_MAIN();

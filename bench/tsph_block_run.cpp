@@ -1,0 +1,138 @@
+// Runs a few steps of the benchmark block (bench/block_case.hpp) and prints what they
+// cost: the driver of the memory measurements (/usr/bin/time -v) and of the CI timing
+// workload (tools/check_timing.py, under callgrind).
+//
+//   tsph-block-run --dim 2 --particles 10000000 --steps 3 [--threads 2] [--alpha 1.2]
+//                  [--small-strain] [--order none|shuffled|cells]
+#include "bench/block_case.hpp"
+#include "engine/memory_estimate.hpp"
+#include "engine/parallel.hpp"
+#include "neighbor/spatial_order.hpp"
+
+#include <algorithm>
+#include <random>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+namespace {
+
+using namespace tsph;
+
+struct Options {
+  int dim = 2;
+  std::int64_t particles = 10'000;
+  int steps = 3;
+  int threads = 0;
+  double alpha = 1.2;
+  Kinematics kinematics = Kinematics::updated_lagrangian;
+  /// none: lattice order (axis 0 fastest); shuffled: a random order (what locality is
+  /// worth); cells: shuffled, then sorted by neighbour-search cell (neighbor/spatial_order.hpp).
+  std::string order = "none";
+};
+
+[[noreturn]] void usage_error(const std::string& message) {
+  std::fprintf(stderr, "tsph-block-run: error: %s\n", message.c_str());
+  std::fprintf(stderr,
+               "usage: tsph-block-run [--dim 2|3] [--particles N] [--steps K] [--threads T] "
+               "[--alpha A] [--small-strain] [--order none|shuffled|cells]\n");
+  std::exit(2);
+}
+
+/// The timed part, one function so that callgrind can count it alone
+/// (--toggle-collect='*run_steps*', tools/check_timing.py).
+template <int Dim>
+[[gnu::noinline]] void run_steps(TaylorSph<Dim>& solver, double dt, int steps) {
+  for (int k = 0; k < steps; ++k) solver.step(dt);
+}
+
+template <int Dim>
+int run(const Options& o) {
+  const auto box = bench::block_box<Dim>(o.particles);
+  const auto real_count = static_cast<std::size_t>(box.total_nodes());
+  try {
+    check_memory_budget(estimate_bytes_per_real_particle<Dim>(o.alpha), real_count,
+                        available_memory_bytes());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tsph-block-run: error: %s\n", e.what());
+    return 2;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  auto reorder = [&o](ParticleSet<Dim>& set, double radius) {
+    if (o.order == "none") return;
+    std::vector<std::uint32_t> order(set.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
+    std::shuffle(order.begin(), order.end(), std::mt19937_64(12345));
+    set.permute(order);
+    // Cells of a quarter of the support radius (0.6 dx at alpha 1.2): at most one
+    // lattice particle per cell, so a lattice gets back its row order.
+    if (o.order == "cells") set.permute(cell_order<Dim>(points_of<Dim>(set), 0.25 * radius));
+  };
+  auto solver = bench::make_block<Dim>(o.particles, o.alpha, o.kinematics, reorder);
+  const auto built = std::chrono::steady_clock::now();
+  const double dt = bench::block_time_step(solver, o.alpha);
+  run_steps(solver, dt, o.steps);
+  const auto end = std::chrono::steady_clock::now();
+  const double setup_s = std::chrono::duration<double>(built - start).count();
+  const double steps_s = std::chrono::duration<double>(end - built).count();
+  std::printf("dim %d, real %zu, virtual %zu, pairs virtual<-real %zu, "
+              "threads %d\n",
+              Dim, solver.real().size(), solver.virtual_particles().size(),
+              solver.virtual_from_real().pair_count(),
+              thread_count());
+  std::printf("setup %.3f s, %d steps %.3f s, %.3f M real-particle-steps/s, estimate %.0f B "
+              "per real particle, kinetic energy %.9e\n",
+              setup_s, o.steps, steps_s,
+              o.steps > 0 ? 1e-6 * static_cast<double>(real_count) * o.steps / steps_s : 0.0,
+              estimate_bytes_per_real_particle<Dim>(o.alpha), solver.kinetic_energy());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  for (int a = 1; a < argc; ++a) {
+    const std::string key = argv[a];
+    if (key == "--order") {
+      if (a + 1 >= argc) usage_error("option --order needs a value");
+      o.order = argv[++a];
+      if (o.order != "none" && o.order != "shuffled" && o.order != "cells")
+        usage_error("order = '" + o.order + "' is invalid: must be one of: none, shuffled, cells");
+      continue;
+    }
+    if (key == "--small-strain") {
+      o.kinematics = Kinematics::small_strain;
+      continue;
+    }
+    if (a + 1 >= argc) usage_error("option " + key + " needs a value");
+    const std::string value = argv[++a];
+    char* end = nullptr;
+    const double number = std::strtod(value.c_str(), &end);
+    if (end == value.c_str() || *end != '\0' || !std::isfinite(number))
+      usage_error(key + " = '" + value + "' is not a number");
+    if (key == "--dim") {
+      if (number != 2.0 && number != 3.0) usage_error("dim = " + value + " is invalid: must be 2 or 3");
+      o.dim = static_cast<int>(number);
+    } else if (key == "--particles") {
+      if (!(number >= 8.0 && number <= 4e9)) usage_error("particles = " + value + " is invalid: must lie in [8, 4e9]");
+      o.particles = static_cast<std::int64_t>(number);
+    } else if (key == "--steps") {
+      if (!(number >= 0.0 && number <= 1e6)) usage_error("steps = " + value + " is invalid: must lie in [0, 1e6]");
+      o.steps = static_cast<int>(number);
+    } else if (key == "--threads") {
+      if (!(number >= 1.0 && number <= 1024.0)) usage_error("threads = " + value + " is invalid: must lie in [1, 1024]");
+      o.threads = static_cast<int>(number);
+    } else if (key == "--alpha") {
+      if (!(number >= 0.5 && number <= 3.0)) usage_error("alpha = " + value + " is invalid: must lie in [0.5, 3]");
+      o.alpha = number;
+    } else {
+      usage_error("unknown option " + key);
+    }
+  }
+  set_thread_count(o.threads);
+  return o.dim == 2 ? run<2>(o) : run<3>(o);
+}

@@ -1,0 +1,76 @@
+// Peak memory of a Taylor-SPH run per real particle, estimated before anything is
+// allocated, so that a particle count that cannot fit is refused with the estimate and
+// the limit instead of failing (or swapping) half-way (issue 4, "Bad input").
+//
+// The model follows what TaylorSph holds at its peak in an updated-Lagrangian step
+// (bench/RESULTS.md compares it with /usr/bin/time -v):
+//   * two particle sets (real, and about as many virtual), each per particle
+//     (4 Dim + stress components + 3) doubles and 3 int32;
+//   * v^n of the real particles (Dim doubles);
+//   * one half-step neighbour list at a time: offsets (8 B) plus 4 B per pair, with
+//     pi (2 alpha)^2 (2D) or 4/3 pi (2 alpha)^3 (3D) pairs per row (the support
+//     ball in lattice cells, an upper bound of the measured count);
+//   * the boundary list's offsets (8 B per real particle; boundary rows are few);
+//   * the cell list being queried: sorted indices, their cells while binning, and
+//     the coordinates in cell order (8 + 8 Dim B).
+#pragma once
+
+#include "engine/particle_set.hpp"
+
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace tsph {
+
+template <int Dim>
+double estimate_bytes_per_real_particle(double alpha) {
+  if (!(alpha > 0.0) || !std::isfinite(alpha))
+    throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
+                                " must be positive");
+  const double set = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double radius = 2.0 * alpha;  // support radius in lattice spacings
+  const double pairs = Dim == 1   ? 2.0 * radius
+                       : Dim == 2 ? std::numbers::pi * radius * radius
+                                  : 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
+  const double list = 8.0 + 4.0 * pairs;
+  const double previous_velocity = 8.0 * Dim;
+  const double boundary_offsets = 8.0;
+  const double cell_list = 8.0 + 8.0 * Dim;
+  return 2.0 * set + previous_velocity + list + boundary_offsets + cell_list;
+}
+
+/// Memory this process may use: MemAvailable of /proc/meminfo (0 if unknown).
+inline std::size_t available_memory_bytes() {
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key;
+  std::size_t kib = 0;
+  std::string unit;
+  while (meminfo >> key >> kib >> unit)
+    if (key == "MemAvailable:") return kib * 1024;
+  return 0;
+}
+
+/// Throws when `particles` x `bytes_per_particle` exceeds `limit_bytes` (a limit of 0
+/// means unknown: nothing is checked).
+inline void check_memory_budget(double bytes_per_particle, std::size_t particles,
+                                std::size_t limit_bytes) {
+  if (limit_bytes == 0) return;
+  const double needed = bytes_per_particle * static_cast<double>(particles);
+  if (needed <= static_cast<double>(limit_bytes)) return;
+  char message[400];
+  std::snprintf(message, sizeof message,
+                "particles = %zu is too many for this machine: the run needs about %.1f GiB "
+                "(%.0f bytes per real particle, virtual set and neighbour lists included) but "
+                "%.1f GiB are available; use at most %.0f particles",
+                particles, needed / 1073741824.0, bytes_per_particle,
+                static_cast<double>(limit_bytes) / 1073741824.0,
+                std::floor(static_cast<double>(limit_bytes) / bytes_per_particle));
+  throw std::invalid_argument(message);
+}
+
+}  // namespace tsph
