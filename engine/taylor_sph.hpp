@@ -535,9 +535,20 @@ class TaylorSph {
       // Effective body force, with the damping, at time n.
       const Vec force = frame.transpose() * (settings_.body_force - settings_.damping * boundary_velocity_[b]);
 
+      // Updated Lagrangian: the Jaumann terms (W sigma - sigma W) of the normal stress
+      // components t_n, t_k (the frame is held fixed over the step), with the spin W from
+      // the velocity gradient in the frame: tangential columns from the virtual set at
+      // n+1/2, the normal column from the real set at n.
+      Mat jaumann = Mat::Zero();
+      if (settings_.kinematics == Kinematics::updated_lagrangian) {
+        Mat gradient_estimate = velocity_dt;
+        gradient_estimate.col(0) = velocity_dn;
+        const Mat spin_estimate = 0.5 * (gradient_estimate - gradient_estimate.transpose());
+        jaumann = spin_estimate * stress0 - stress0 * spin_estimate;
+      }
       // Outgoing invariants at n+1.
       double tangential_divergence = 0.0;  // div_t v_t
-      double p_rhs = -z_p * force[0];
+      double p_rhs = -z_p * force[0] + jaumann(0, 0);
       for (int k = 1; k < Dim; ++k) {
         tangential_divergence += velocity_dt(k, k);
         p_rhs += lame * velocity_dt(k, k) - c_p * stress_dt[k](k, 0);
@@ -546,7 +557,7 @@ class TaylorSph {
                                  c_p * dt * (stress_dn(0, 0) - z_p * velocity_dn[0]) + dt * p_rhs;
       std::array<double, Dim> s_invariant{};
       for (int k = 1; k < Dim; ++k) {
-        double s_rhs = shear * velocity_dt(0, k) - z_s * force[k];
+        double s_rhs = shear * velocity_dt(0, k) - z_s * force[k] + jaumann(0, k);
         for (int l = 1; l < Dim; ++l) s_rhs -= c_s * stress_dt[l](l, k);
         s_invariant[k] = stress0(0, k) - z_s * velocity0[k] -
                          c_s * dt * (stress_dn(0, k) - z_s * velocity_dn[k]) + dt * s_rhs;
@@ -575,9 +586,11 @@ class TaylorSph {
       // recovered from the rates of t_n and t_k, then Hooke and the Jaumann spin.
       Mat gradient = velocity_dt;  // gradient(i, j) = d v'_i / d x'_j
       gradient(0, 0) =
-          ((stress1(0, 0) - stress0(0, 0)) / dt - lame * tangential_divergence) / modulus;
+          ((stress1(0, 0) - stress0(0, 0)) / dt - jaumann(0, 0) - lame * tangential_divergence) /
+          modulus;
       for (int k = 1; k < Dim; ++k)
-        gradient(k, 0) = (stress1(0, k) - stress0(0, k)) / (dt * shear) - velocity_dt(0, k);
+        gradient(k, 0) =
+            ((stress1(0, k) - stress0(0, k)) / dt - jaumann(0, k)) / shear - velocity_dt(0, k);
       const Mat spin = 0.5 * (gradient - gradient.transpose());
       const Mat rotation_rate = settings_.kinematics == Kinematics::updated_lagrangian
                                     ? Mat(spin * stress0 - stress0 * spin)
