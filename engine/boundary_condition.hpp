@@ -4,6 +4,8 @@
 //   time[k](t) * profile(x_I^0)[k],
 // a time function times a spatial profile evaluated once at the particle's initial
 // position (uniform by default; the cantilever's parabolic shear is a profile).
+// A velocity condition may instead give a field v(x^0, t) that is not such a product
+// (a rigid rotation, for example).
 // Particles carry the index of their condition in ParticleSet::boundary.
 #pragma once
 
@@ -25,11 +27,28 @@ struct BoundaryCondition {
   std::array<TimeFunction, Dim> time = filled(TimeFunction::constant(0.0));
   Profile profile = [](const Vector<Dim>&) { return Vector<Dim>::Ones().eval(); };
   std::string name;
+  /// Optional velocity field v(x0, t) (velocity conditions only): replaces time x profile.
+  std::function<Vector<Dim>(const Vector<Dim>&, double)> field;
+
+  /// The prescribed vector at a particle of initial position x0, with profile(x0) given.
+  Vector<Dim> prescribed(const Vector<Dim>& x0, const Vector<Dim>& profile_at_x0, double t) const {
+    if (field) return field(x0, t);
+    Vector<Dim> value;
+    for (int d = 0; d < Dim; ++d) value[d] = time[static_cast<std::size_t>(d)](t) * profile_at_x0[d];
+    return value;
+  }
 
   /// Prescribed velocity vector v(t) = (f_0(t), ..., f_Dim-1(t)) [x profile(x0)].
   static BoundaryCondition velocity(std::array<TimeFunction, Dim> components, std::string name,
                                     Profile profile = uniform()) {
-    return {Kind::velocity, std::move(components), std::move(profile), std::move(name)};
+    return {Kind::velocity, std::move(components), std::move(profile), std::move(name), {}};
+  }
+  /// Prescribed velocity field v(x0, t) of the initial position and time.
+  static BoundaryCondition velocity_field(std::function<Vector<Dim>(const Vector<Dim>&, double)> field,
+                                          std::string name) {
+    BoundaryCondition c = velocity(filled(TimeFunction::constant(0.0)), std::move(name));
+    c.field = std::move(field);
+    return c;
   }
   /// Held at rest: v = 0.
   static BoundaryCondition fixed(std::string name) {
@@ -38,7 +57,7 @@ struct BoundaryCondition {
   /// Prescribed traction vector t(t) = sigma . n [x profile(x0)].
   static BoundaryCondition traction(std::array<TimeFunction, Dim> components, std::string name,
                                     Profile profile = uniform()) {
-    return {Kind::traction, std::move(components), std::move(profile), std::move(name)};
+    return {Kind::traction, std::move(components), std::move(profile), std::move(name), {}};
   }
   /// Zero traction.
   static BoundaryCondition free(std::string name) {

@@ -64,6 +64,9 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
                       "(force runs it anyway)"});
   if (!(s.hourglass >= 0.0 && s.hourglass < 1.0))
     errors.push_back({"hourglass", format_number(s.hourglass), "must lie in [0, 1)"});
+  if (!(s.hourglass_stiffness >= 0.0 && s.hourglass_stiffness <= 1.0))
+    errors.push_back({"hourglass_stiffness", format_number(s.hourglass_stiffness),
+                      "must lie in [0, 1] (0: off)"});
   return errors;
 }
 
@@ -149,6 +152,7 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
   settings.kinematics = s.kinematics;
   settings.damping = s.damping >= 0.0 ? s.damping : 2.0 * omega;
   settings.hourglass_coefficient = s.hourglass;
+  settings.hourglass_stiffness = s.hourglass_stiffness;
   const LinearElastic<Dim> material(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode);
   TaylorSph<Dim> solver(std::move(real), std::move(virtual_particles), material, settings,
                         conditions);

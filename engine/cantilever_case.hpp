@@ -37,6 +37,7 @@ struct CantileverSettings {
   double damping = -1.0;       ///< c (1/s); < 0: 2 omega_1 (critical for the first mode)
   double ramp_time = -1.0;     ///< load ramp (s); < 0: one first-mode period
   double hourglass = 0.02;     ///< surface hourglass filter coefficient
+  double hourglass_stiffness = 0.0;  ///< kappa of the hourglass stiffness (SolverSettings)
   double end_time = 3.0;       ///< give up after this simulated time (s)
   double tolerance = 1e-5;     ///< converged when |tip velocity| < tolerance * tip_exact / T1
   std::function<void(double time, double tip, double kinetic)> progress;  ///< optional

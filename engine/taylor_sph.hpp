@@ -10,7 +10,8 @@
 //   2. full_step (virtual -> real), seed eq. (4):
 //        U_r^{n+1} = U_r^n + dt [ S_r^{n+1/2} - div F ],
 //      with F_r^{n+1/2} interpolated from the virtual neighbours (DESIGN.md 3.2);
-//   3. boundary conditions at n+1 by characteristics (below);
+//   3. boundary conditions at n+1 by characteristics (below); then the hourglass
+//      stiffness (if enabled, apply_hourglass_stiffness);
 //   4. hourglass filter of the traction-surface particles' velocities (if enabled);
 //   5. displacements; in updated-Lagrangian mode: move both sets, update density,
 //      rebuild the neighbour lists and normals.
@@ -88,6 +89,15 @@ struct SolverSettings {
   /// fed by the characteristic relations): the 2D plane-stress cantilever then creeps
   /// without end. 0.02 to 0.05 cures it; 0.1 and above spoils it (README).
   double hourglass_coefficient = 0.0;
+  /// Hourglass stiffness kappa >= 0 (dimensionless; see apply_hourglass_stiffness): a
+  /// restoring force on the part of the real displacement field that the virtual
+  /// particles cannot see (the checkerboard, odd-even columns), with stiffness
+  /// k = kappa M / h^2 per unit volume (M the P-wave modulus). Zero for every linear
+  /// displacement field (rigid motions included), so it leaves the patch test exact.
+  /// Off by default: it smooths the cantilever's displacement field but does not make
+  /// the cantilever converge (README, Known problems). Diverges above about 0.25 at
+  /// alpha 0.6, CFL 0.9.
+  double hourglass_stiffness = 0.0;
 };
 
 /// What the run did; fallbacks are counted per stencil evaluation.
@@ -200,6 +210,10 @@ class TaylorSph {
       throw std::invalid_argument("solver: hourglass coefficient = " +
                                   std::to_string(settings_.hourglass_coefficient) +
                                   " must lie in [0, 1)");
+    if (!(settings_.hourglass_stiffness >= 0.0 && settings_.hourglass_stiffness <= 1.0))
+      throw std::invalid_argument("solver: hourglass stiffness = " +
+                                  std::to_string(settings_.hourglass_stiffness) +
+                                  " must lie in [0, 1]");
     if (real_.size() == 0 || virtual_.size() == 0)
       throw std::invalid_argument("solver: needs at least one real and one virtual particle");
     boundary_slot_.assign(real_.size(), -1);
@@ -263,6 +277,7 @@ class TaylorSph {
       half_step(kernel, dt);
       full_step(kernel, dt);
       apply_boundary_conditions(dt, time_ + dt);
+      if (settings_.hourglass_stiffness > 0.0) apply_hourglass_stiffness(kernel, dt);
       if (settings_.hourglass_coefficient > 0.0) filter_hourglass(kernel);
     });
     check_stability(dt);  // a diverged state is reported before it moves any particle
@@ -627,8 +642,8 @@ class TaylorSph {
       const std::uint32_t i = boundary_particles_[b];
       const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[i])];
       if (!boundary_on_surface_[b]) {  // a velocity held inside the body: imposed directly
-        for (int d = 0; d < Dim; ++d)
-          real_.velocity[d][i] = condition.time[d](t_new) * boundary_profile_[b][d];
+        const Vec v = condition.prescribed(initial_position_of(i), boundary_profile_[b], t_new);
+        for (int d = 0; d < Dim; ++d) real_.velocity[d][i] = v[d];
         continue;
       }
       const Vec& n = boundary_normal_[b];
@@ -660,9 +675,20 @@ class TaylorSph {
       // Effective body force, with the damping, at time n.
       const Vec force = frame.transpose() * (settings_.body_force - settings_.damping * boundary_velocity_[b]);
 
+      // Updated Lagrangian: the Jaumann terms (W sigma - sigma W) of the normal stress
+      // components t_n, t_k (the frame is held fixed over the step), with the spin W from
+      // the velocity gradient in the frame: tangential columns from the virtual set at
+      // n+1/2, the normal column from the real set at n.
+      Mat jaumann = Mat::Zero();
+      if (settings_.kinematics == Kinematics::updated_lagrangian) {
+        Mat gradient_estimate = velocity_dt;
+        gradient_estimate.col(0) = velocity_dn;
+        const Mat spin_estimate = 0.5 * (gradient_estimate - gradient_estimate.transpose());
+        jaumann = spin_estimate * stress0 - stress0 * spin_estimate;
+      }
       // Outgoing invariants at n+1.
       double tangential_divergence = 0.0;  // div_t v_t
-      double p_rhs = -z_p * force[0];
+      double p_rhs = -z_p * force[0] + jaumann(0, 0);
       for (int k = 1; k < Dim; ++k) {
         tangential_divergence += velocity_dt(k, k);
         p_rhs += lame * velocity_dt(k, k) - c_p * stress_dt[k](k, 0);
@@ -671,16 +697,15 @@ class TaylorSph {
                                  c_p * dt * (stress_dn(0, 0) - z_p * velocity_dn[0]) + dt * p_rhs;
       std::array<double, Dim> s_invariant{};
       for (int k = 1; k < Dim; ++k) {
-        double s_rhs = shear * velocity_dt(0, k) - z_s * force[k];
+        double s_rhs = shear * velocity_dt(0, k) - z_s * force[k] + jaumann(0, k);
         for (int l = 1; l < Dim; ++l) s_rhs -= c_s * stress_dt[l](l, k);
         s_invariant[k] = stress0(0, k) - z_s * velocity0[k] -
                          c_s * dt * (stress_dn(0, k) - z_s * velocity_dn[k]) + dt * s_rhs;
       }
 
       // Incoming invariants from the prescribed velocity or traction.
-      Vec prescribed;
-      for (int d = 0; d < Dim; ++d) prescribed[d] = condition.time[d](t_new) * boundary_profile_[b][d];
-      prescribed = frame.transpose() * prescribed;
+      const Vec prescribed =
+          frame.transpose() * condition.prescribed(initial_position_of(i), boundary_profile_[b], t_new);
       Mat stress1 = stress0;
       Vec velocity1;
       const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
@@ -701,9 +726,11 @@ class TaylorSph {
       // recovered from the rates of t_n and t_k, then Hooke and the Jaumann spin.
       Mat gradient = velocity_dt;  // gradient(i, j) = d v'_i / d x'_j
       gradient(0, 0) =
-          ((stress1(0, 0) - stress0(0, 0)) / dt - lame * tangential_divergence) / modulus;
+          ((stress1(0, 0) - stress0(0, 0)) / dt - jaumann(0, 0) - lame * tangential_divergence) /
+          modulus;
       for (int k = 1; k < Dim; ++k)
-        gradient(k, 0) = (stress1(0, k) - stress0(0, k)) / (dt * shear) - velocity_dt(0, k);
+        gradient(k, 0) =
+            ((stress1(0, k) - stress0(0, k)) / dt - jaumann(0, k)) / shear - velocity_dt(0, k);
       const Mat spin = 0.5 * (gradient - gradient.transpose());
       const Mat rotation_rate = settings_.kinematics == Kinematics::updated_lagrangian
                                     ? Mat(spin * stress0 - stress0 * spin)
@@ -735,6 +762,160 @@ class TaylorSph {
                                   : boundary_stress_[b][zz] + dt * lame * volumetric;
       }
     }
+  }
+
+  /// One linear least-squares fit u(X) ~ a + B (X - X_0) over a stencil (see
+  /// apply_hourglass_stiffness): the value a = sum_J c^T p_J (w_J / w) u_J, with
+  /// p_J = (1, X_J - X_0), w = sum_J w_J and c the first column of the inverse of the
+  /// normalised moment matrix sum_J (w_J / w) p_J p_J^T. weight_sum = 0: no fit.
+  struct LinearFitWeights {
+    Eigen::Matrix<double, Dim + 1, 1> first_column = Eigen::Matrix<double, Dim + 1, 1>::Zero();
+    double weight_sum = 0.0;
+  };
+
+  /// Step 3b: hourglass stiffness (SolverSettings::hourglass_stiffness), a restoring
+  /// force on what the virtual particles cannot see. The scheme sees the real field only
+  /// through its values interpolated to the virtual particles (cell centres) and their
+  /// gradients, so every real field whose cell averages vanish is invisible to the
+  /// stress: the checkerboard (-1)^(i+j), and also (-1)^i f(y) and (-1)^j g(x) (a
+  /// column-wise odd-even u_y is what makes the cantilever creep). The round trip
+  /// RT(u) = R A u measures them: A takes the real displacements to the virtual
+  /// particles (linear least-squares fit over the virtual particle's real neighbours,
+  /// value at X_v), R brings the virtual values back to each real particle (linear
+  /// least-squares fit over the virtual particles within max(2h, 1.75 dx), value at X_I),
+  /// both in the initial coordinates X with kernel weights. Both fits reproduce linear
+  /// fields, so r = u - RT(u) is zero for every linear field (rigid motions included),
+  /// at the boundary too, and equals u for the invisible fields (A u = 0). The force is
+  /// that of the energy
+  ///     E = k/2 sum_I V_I |r_I|^2,   k = kappa M / h^2   (M: P-wave modulus),
+  ///     F_J = -dE/du_J = -k ( V_J r_J - sum_v A_vJ s_v ),   s_v = sum_I V_I r_I R_Iv.
+  /// For a smooth field r = O(dx^2 grad grad u), so F = O(kappa M dx^2 d^4 u): it vanishes
+  /// with the spacing (the one-sided form -k r would be O(kappa M d^2 u), a competing
+  /// elasticity: measured, it makes the cantilever worse). sum_v A_vJ = sum_v R_Iv = 1, so
+  /// sum_J F_J = 0: linear momentum is conserved. Time integration:
+  /// v^{n+1} += dt F(u^n + dt/2 v^n) / m, with the trapezoidal displacement update an
+  /// area-preserving pair, stable for k dt^2 / rho < 4. Particles with a prescribed
+  /// velocity receive no force (their reaction is the constraint's).
+  template <class Kernel>
+  void apply_hourglass_stiffness(const Kernel& kernel, double dt) {
+    if (hourglass_list_build_ != counters_.neighbor_builds) build_hourglass_lists();
+    const double h = settings_.smoothing_length;
+    const double return_h = 0.5 * hourglass_radius_;  // kernel support = the list radius
+    const double stiffness = settings_.hourglass_stiffness * material_.p_wave_modulus() / (h * h);
+    using Basis = Eigen::Matrix<double, Dim + 1, 1>;
+    using Moments = Eigen::Matrix<double, Dim + 1, Dim + 1>;
+    auto offset = [&](std::uint32_t r, std::uint32_t v) {  // X_r - X_v, initial coordinates
+      Vec dx;
+      for (int d = 0; d < Dim; ++d)
+        dx[d] = real_.initial_position[d][r] - virtual_.initial_position[d][v];
+      return dx;
+    };
+    auto basis = [](const Vec& dx) {
+      Basis p;
+      p[0] = 1.0;
+      p.template tail<Dim>() = dx;
+      return p;
+    };
+    // Linear least-squares fit weights over a stencil, offsets X_source - X_centre.
+    auto fit = [&](auto&& neighbours, auto&& dx_of, double kernel_h) {
+      Moments moments = Moments::Zero();
+      double weight_sum = 0.0;
+      for (std::uint32_t k : neighbours) {
+        const Vec dx = dx_of(k);
+        const Basis p = basis(dx);
+        const double w = kernel.value(dx.norm(), kernel_h);
+        moments += w * p * p.transpose();
+        weight_sum += w;
+      }
+      LinearFitWeights out;
+      if (!(weight_sum > 0.0)) return out;
+      Eigen::FullPivLU<Moments> lu(moments / weight_sum);
+      lu.setThreshold(1e-10);
+      if (!lu.isInvertible()) return out;  // neighbours on a line: no fit, no force
+      out.first_column = lu.inverse().col(0);
+      out.weight_sum = weight_sum;
+      return out;
+    };
+    auto coefficient = [&](const LinearFitWeights& f, const Vec& dx, double kernel_h) {
+      return kernel.value(dx.norm(), kernel_h) / f.weight_sum * f.first_column.dot(basis(dx));
+    };
+    auto displacement = [&](std::uint32_t j) {  // u^n + dt/2 v^n
+      Vec u;
+      for (int d = 0; d < Dim; ++d)
+        u[d] = real_.displacement[d][j] + 0.5 * dt * previous_velocity_[d][j];
+      return u;
+    };
+    const std::size_t real_count = real_.size(), virtual_count = virtual_.size();
+    forward_fit_.resize(virtual_count);
+    return_fit_.resize(real_count);
+    virtual_value_.resize(virtual_count);
+    round_trip_residual_.resize(real_count);
+    // A: virtual values a_v = sum_J A_vJ u_J.
+    parallel_for(virtual_count, [&](std::size_t v) {
+      const auto nb = virtual_from_real_.neighbors(v);
+      const auto vi = static_cast<std::uint32_t>(v);
+      forward_fit_[v] = fit(nb, [&](std::uint32_t j) { return offset(j, vi); }, h);
+      Vec value = Vec::Zero();
+      if (forward_fit_[v].weight_sum > 0.0)
+        for (std::uint32_t j : nb) value += coefficient(forward_fit_[v], offset(j, vi), h) * displacement(j);
+      virtual_value_[v] = value;
+    });
+    // R: r_I = u_I - sum_v R_Iv a_v, weighted by V_I.
+    parallel_for(real_count, [&](std::size_t i) {
+      const auto nb = hourglass_from_virtual_.neighbors(i);
+      const auto ri = static_cast<std::uint32_t>(i);
+      return_fit_[i] = fit(nb, [&](std::uint32_t v) { return Vec(-offset(ri, v)); }, return_h);
+      Vec residual = Vec::Zero();
+      if (return_fit_[i].weight_sum > 0.0) {
+        residual = displacement(ri);
+        for (std::uint32_t v : nb)
+          residual -= coefficient(return_fit_[i], Vec(-offset(ri, v)), return_h) * virtual_value_[v];
+      }
+      round_trip_residual_[i] = (real_.mass[i] / real_.density[i]) * residual;
+    });
+    // s_v = sum_I R_Iv V_I r_I (the transposed return trip; reuses virtual_value_).
+    parallel_for(virtual_count, [&](std::size_t v) {
+      Vec sum = Vec::Zero();
+      for (std::uint32_t i : hourglass_to_real_.neighbors(v))
+        if (return_fit_[i].weight_sum > 0.0)
+          sum += coefficient(return_fit_[i], Vec(-offset(i, static_cast<std::uint32_t>(v))), return_h) *
+                 round_trip_residual_[i];
+      virtual_value_[v] = sum;
+    });
+    // F_J = -k (V_J r_J - sum_v A_vJ s_v).
+    parallel_for(real_count, [&](std::size_t j) {
+      if (const std::int32_t b = boundary_slot_[j]; b >= 0) {
+        const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[j])];
+        if (condition.kind == BoundaryCondition<Dim>::Kind::velocity) return;
+      }
+      const auto rj = static_cast<std::uint32_t>(j);
+      Vec force = round_trip_residual_[j];
+      for (std::uint32_t v : real_from_virtual_.neighbors(j))
+        if (forward_fit_[v].weight_sum > 0.0)
+          force -= coefficient(forward_fit_[v], offset(rj, v), h) * virtual_value_[v];
+      for (int d = 0; d < Dim; ++d) real_.velocity[d][j] -= dt * stiffness * force[d] / real_.mass[j];
+    });
+  }
+
+  /// The real -> virtual lists of the hourglass stiffness's return trip (and the
+  /// transpose), in the initial coordinates: radius max(2h, 1.75 dx) (dx from the mean virtual volume), so that every
+  /// real particle, corners included, sees Dim + 1 virtual particles off a line.
+  void build_hourglass_lists() {
+    double mean_volume = 0.0;
+    for (std::size_t v = 0; v < virtual_.size(); ++v) mean_volume += virtual_.mass[v] / virtual_.density[v];
+    mean_volume /= static_cast<double>(virtual_.size());
+    const double spacing = std::pow(mean_volume, 1.0 / Dim);
+    hourglass_radius_ = std::max(support_radius(), 1.75 * spacing);
+    PointsView<Dim> real_points, virtual_points;
+    real_points.count = real_.size();
+    virtual_points.count = virtual_.size();
+    for (int d = 0; d < Dim; ++d) {
+      real_points.coordinate[d] = real_.initial_position[d].data();
+      virtual_points.coordinate[d] = virtual_.initial_position[d].data();
+    }
+    hourglass_from_virtual_ = CellList<Dim>(virtual_points, hourglass_radius_).query(real_points);
+    hourglass_to_real_ = CellList<Dim>(real_points, hourglass_radius_).query(virtual_points);
+    hourglass_list_build_ = counters_.neighbor_builds;
   }
 
   /// Step 4: hourglass control at free and loaded surfaces (see
@@ -909,6 +1090,15 @@ class TaylorSph {
   std::vector<Mat> boundary_half_velocity_gradient_;           ///< grad v^{n+1/2} (virtual)
   std::array<std::vector<double>, Dim> previous_velocity_;  ///< v^n of the real particles
   std::vector<Vec> filtered_velocity_;  ///< hourglass filter scratch, per boundary slot
+  // Hourglass stiffness scratch (apply_hourglass_stiffness).
+  std::vector<LinearFitWeights> forward_fit_;   ///< A, per virtual particle
+  std::vector<LinearFitWeights> return_fit_;    ///< R, per real particle
+  std::vector<Vec> virtual_value_;              ///< a_v, then s_v
+  std::vector<Vec> round_trip_residual_;        ///< V_I r_I
+  NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)
+  NeighborList hourglass_to_real_;       ///< its transpose
+  double hourglass_radius_ = 0.0;
+  std::int64_t hourglass_list_build_ = -1;  ///< neighbor_builds when it was built
 };
 
 }  // namespace tsph
