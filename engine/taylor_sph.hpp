@@ -314,7 +314,8 @@ class TaylorSph {
 
  private:
   /// NaN/Inf in the velocity or stress of either set, or a runaway of the energy
-  /// (kRunawayGrowthPerStep): throws SolutionDiverged with the diagnosis.
+  /// (kRunawayGrowths, kRunawayWindows, kRunawayJumpFactor): throws SolutionDiverged
+  /// with the diagnosis.
   void check_stability(double dt) {
     const std::int64_t step = counters_.steps + 1;
     auto non_finite = [](const ParticleSet<Dim>& set, std::size_t i) -> const char* {
@@ -1068,9 +1069,9 @@ class TaylorSph {
   SolverCounters counters_;
   double previous_energy_ = 0.0;   ///< total energy after the last step (check_stability)
   std::array<int, kRunawayGrowths.size()> energy_growth_steps_{};  ///< consecutive, per growth
-  std::vector<double> largest_energy_;
-  double initial_spacing_ = 0.0;
-  std::int64_t energized_steps_ = 0;  ///< steps with a positive largest energy  ///< (mean initial virtual volume)^(1/Dim)  ///< largest energy so far, after each recent step
+  std::vector<double> largest_energy_;  ///< largest energy so far, after each recent step
+  double initial_spacing_ = 0.0;        ///< (mean initial virtual volume)^(1/Dim)
+  std::int64_t energized_steps_ = 0;    ///< steps with a positive largest energy
 
   NeighborList virtual_from_real_;  ///< rows: virtual particles; entries: real
   NeighborList real_from_virtual_;  ///< rows: real particles; entries: virtual
