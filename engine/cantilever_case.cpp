@@ -98,7 +98,7 @@ double CantileverExact<Dim>::deflection(double x, double y) const {
 }
 
 template <int Dim>
-CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
+CantileverModel<Dim> make_cantilever(const CantileverSettings<Dim>& s) {
   throw_if_invalid(validate(s));
   using Vec = Vector<Dim>;
   const double dx = s.spacing();
@@ -117,8 +117,10 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
 
   const CantileverExact<Dim> exact(s);
   const double omega = s.first_mode_frequency();
-  const double period = 2.0 * M_PI / omega;
-  const double ramp = s.ramp_time >= 0.0 ? s.ramp_time : period;
+  CantileverModel<Dim> model;
+  model.period = 2.0 * M_PI / omega;
+  model.ramp = s.ramp_time >= 0.0 ? s.ramp_time : model.period;
+  const double ramp = model.ramp;
   const TimeFunction load_in_time =
       ramp > 0.0 ? TimeFunction::linear_ramp(1.0, 0.0, ramp) : TimeFunction::constant(1.0);
 
@@ -153,25 +155,36 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
   settings.damping = s.damping >= 0.0 ? s.damping : 2.0 * omega;
   settings.hourglass_coefficient = s.hourglass;
   settings.hourglass_stiffness = s.hourglass_stiffness;
+  settings.velocity_wall = s.clamp;
   const LinearElastic<Dim> material(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode);
-  TaylorSph<Dim> solver(std::move(real), std::move(virtual_particles), material, settings,
-                        conditions);
+  model.solver = std::make_unique<TaylorSph<Dim>>(std::move(real), std::move(virtual_particles),
+                                                  material, settings, conditions);
+  model.time_step = s.cfl * dx / material.p_wave_speed(s.density);
 
   // The tip particle on the axis, and the particles on the axis.
-  const auto& r0 = solver.real();
-  std::size_t tip = 0;
-  std::vector<std::size_t> axis;
+  const auto& r0 = model.solver->real();
   for (std::size_t i = 0; i < r0.size(); ++i) {
     bool on_axis = true;
     for (int d = 1; d < Dim; ++d) on_axis = on_axis && std::abs(r0.initial_position[d][i]) < tol;
     if (!on_axis) continue;
-    axis.push_back(i);
-    if (std::abs(r0.initial_position[0][i] - s.length) < tol) tip = i;
+    model.axis.push_back(i);
+    if (std::abs(r0.initial_position[0][i] - s.length) < tol) model.tip = i;
   }
+  return model;
+}
+
+template <int Dim>
+CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
+  CantileverModel<Dim> model = make_cantilever(s);
+  TaylorSph<Dim>& solver = *model.solver;
+  const CantileverExact<Dim> exact(s);
+  const double period = model.period, ramp = model.ramp;
+  const std::size_t tip = model.tip;
+  const std::vector<std::size_t>& axis = model.axis;
 
   CantileverResult result;
   result.tip_exact = exact.tip_deflection();
-  result.time_step = s.cfl * dx / material.p_wave_speed(s.density);
+  result.time_step = model.time_step;
   result.real_particles = solver.real().size();
   result.virtual_particles = solver.virtual_particles().size();
   const double dt = result.time_step;
@@ -229,6 +242,8 @@ template class CantileverExact<2>;
 template class CantileverExact<3>;
 template std::vector<InputError> validate(const CantileverSettings<2>&);
 template std::vector<InputError> validate(const CantileverSettings<3>&);
+template CantileverModel<2> make_cantilever(const CantileverSettings<2>&);
+template CantileverModel<3> make_cantilever(const CantileverSettings<3>&);
 template CantileverResult run_cantilever(const CantileverSettings<2>&);
 template CantileverResult run_cantilever(const CantileverSettings<3>&);
 

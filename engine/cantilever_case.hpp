@@ -9,6 +9,7 @@
 #include "engine/taylor_sph.hpp"
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,8 @@ struct CantileverSettings {
   double ramp_time = -1.0;     ///< load ramp (s); < 0: one first-mode period
   double hourglass = 0.02;     ///< surface hourglass filter coefficient
   double hourglass_stiffness = 0.0;  ///< kappa of the hourglass stiffness (SolverSettings)
+  /// Stress update of the clamped particles (SolverSettings::velocity_wall).
+  typename SolverSettings<Dim>::VelocityWall clamp = SolverSettings<Dim>::VelocityWall::characteristics;
   double end_time = 3.0;       ///< give up after this simulated time (s)
   double tolerance = 1e-5;     ///< converged when |tip velocity| < tolerance * tip_exact / T1
   std::function<void(double time, double tip, double kinetic)> progress;  ///< optional
@@ -82,6 +85,23 @@ struct CantileverResult {
   std::vector<std::array<double, 3>> initial_position, displacement;
   std::vector<std::array<double, 6>> stress;
 };
+
+/// The cantilever's solver and what a run needs around it (run_cantilever, and the
+/// spectrum tool, tools/tsph_spectrum.cpp, which applies single steps to it).
+template <int Dim>
+struct CantileverModel {
+  std::unique_ptr<TaylorSph<Dim>> solver;
+  double time_step = 0.0;   ///< dt = CFL dx / c_p
+  double period = 0.0;      ///< first-mode period T1 (s)
+  double ramp = 0.0;        ///< load ramp time (s)
+  std::size_t tip = 0;      ///< the real particle at the tip on the axis
+  std::vector<std::size_t> axis;  ///< the real particles on the axis
+};
+
+/// Builds the particles, conditions and solver of the cantilever (throws on invalid
+/// settings).
+template <int Dim>
+CantileverModel<Dim> make_cantilever(const CantileverSettings<Dim>& settings);
 
 template <int Dim>
 CantileverResult run_cantilever(const CantileverSettings<Dim>& settings);

@@ -98,6 +98,16 @@ struct SolverSettings {
   /// the cantilever converge (README, Known problems). Diverges above about 0.25 at
   /// alpha 0.6, CFL 0.9.
   double hourglass_stiffness = 0.0;
+  /// Stress of the particles on a prescribed-velocity surface (a clamp).
+  /// characteristics: the characteristic relations (default; exact for the 1D bar).
+  /// wall_gradient: the bulk update sigma += dt D : grad v^{n+1/2} with the gradient of
+  /// the virtual half-step velocity taken relative to the prescribed velocity at the
+  /// particle (not relative to the interpolated one), so that a virtual velocity that
+  /// does not vanish at a fixed wall (a rigid rotation about the clamp) is a strain
+  /// there and meets a stress. tools/tsph-spectrum: with characteristics the clamped
+  /// cantilever's one-step map has a fixed point that rotates about the clamp (the creep).
+  enum class VelocityWall { characteristics, wall_gradient };
+  VelocityWall velocity_wall = VelocityWall::characteristics;
 };
 
 /// What the run did; fallbacks are counted per stencil evaluation.
@@ -181,10 +191,15 @@ inline constexpr std::int64_t kRunawayJumpAfter = 1000;
 /// Benchmarks time the stages of a step one by one (defined in bench/bench_step_nd.cpp).
 template <int Dim>
 struct StepStages;
+/// One step applied to a given state, for the spectrum of the step map (defined in
+/// engine/step_map.hpp).
+template <int Dim>
+struct LinearStepAccess;
 
 template <int Dim>
 class TaylorSph {
   friend struct StepStages<Dim>;
+  friend struct LinearStepAccess<Dim>;
 
  public:
   using Vec = Vector<Dim>;
@@ -242,6 +257,8 @@ class TaylorSph {
     boundary_velocity_gradient_.assign(nb, Mat::Zero());
     boundary_half_stress_gradient_.assign(nb, zero_gradient);
     boundary_half_velocity_gradient_.assign(nb, Mat::Zero());
+    boundary_half_velocity_.assign(nb, Vec::Zero());
+    boundary_gradient_sum_.assign(nb, Vec::Zero());
     for (auto& v : previous_velocity_) v.resize(real_.size());
     filtered_velocity_.assign(nb, Vec::Zero());
     double virtual_volume = 0.0;  // dx of the CFL in a diagnosis (check_stability)
@@ -582,6 +599,8 @@ class TaylorSph {
           if (status.no_neighbors) {
             if (const std::int32_t b = boundary_slot_[r]; b >= 0) {  // no stale gradients
               boundary_half_velocity_gradient_[static_cast<std::size_t>(b)].setZero();
+              boundary_half_velocity_[static_cast<std::size_t>(b)].setZero();
+              boundary_gradient_sum_[static_cast<std::size_t>(b)].setZero();
               for (auto& g : boundary_half_stress_gradient_[static_cast<std::size_t>(b)]) g.setZero();
             }
             return;
@@ -590,6 +609,10 @@ class TaylorSph {
           if (const std::int32_t b = boundary_slot_[r]; b >= 0) {
             // Tangential derivatives at n+1/2 for the boundary conditions.
             boundary_half_velocity_gradient_[static_cast<std::size_t>(b)] = s.velocity_gradient;
+            boundary_half_velocity_[static_cast<std::size_t>(b)] = s.velocity;
+            Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
+            for (std::size_t k = 0; k < nb.size(); ++k) gradient_sum += w.gradient[k];
+            boundary_gradient_sum_[static_cast<std::size_t>(b)] = gradient_sum;
             boundary_half_stress_gradient_[static_cast<std::size_t>(b)] =
                 stress_gradient(source, nb, w, s.stress);
           }
@@ -645,6 +668,11 @@ class TaylorSph {
       if (!boundary_on_surface_[b]) {  // a velocity held inside the body: imposed directly
         const Vec v = condition.prescribed(initial_position_of(i), boundary_profile_[b], t_new);
         for (int d = 0; d < Dim; ++d) real_.velocity[d][i] = v[d];
+        continue;
+      }
+      if (settings_.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient &&
+          condition.kind == BoundaryCondition<Dim>::Kind::velocity) {
+        apply_wall_gradient(b, i, condition, dt, t_new);
         continue;
       }
       const Vec& n = boundary_normal_[b];
@@ -762,6 +790,27 @@ class TaylorSph {
                                   ? 0.0
                                   : boundary_stress_[b][zz] + dt * lame * volumetric;
       }
+    }
+  }
+
+  /// SolverSettings::VelocityWall::wall_gradient at a prescribed-velocity particle:
+  /// sigma^{n+1} = sigma^n + dt D : grad v^{n+1/2} (seed eq. 4), with the gradient of the
+  /// virtual half-step velocity relative to the prescribed v^{n+1/2} at the particle,
+  ///     sum_J V_J (v_J - v_wall) Gn_IJ = grad v + (v(x_I) - v_wall) (x) sum_J V_J Gn_IJ,
+  /// and v^{n+1} prescribed.
+  void apply_wall_gradient(std::size_t b, std::uint32_t i, const BoundaryCondition<Dim>& condition,
+                           double dt, double t_new) {
+    const Vec wall_half = condition.prescribed(initial_position_of(i), boundary_profile_[b], t_new - 0.5 * dt);
+    const Mat gradient = boundary_half_velocity_gradient_[b] +
+                         (boundary_half_velocity_[b] - wall_half) * boundary_gradient_sum_[b].transpose();
+    const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
+    const StressVector<Dim> rate = material_.stress_rate(gradient, boundary_stress_[b], moving);
+    for (int m = 0; m < stress_count; ++m) real_.stress[m][i] = boundary_stress_[b][m] + dt * rate[m];
+    const Vec v = condition.prescribed(initial_position_of(i), boundary_profile_[b], t_new);
+    for (int d = 0; d < Dim; ++d) real_.velocity[d][i] = v[d];
+    if (moving) {
+      real_.density[i] = boundary_density_[b] * std::exp(-dt * gradient.trace());
+      real_.volume[i] = real_.mass[i] / real_.density[i];
     }
   }
 
@@ -1089,6 +1138,8 @@ class TaylorSph {
   std::vector<Mat> boundary_velocity_gradient_;           ///< grad v^n (real set)
   std::vector<StressGradient> boundary_half_stress_gradient_;  ///< grad sigma^{n+1/2} (virtual)
   std::vector<Mat> boundary_half_velocity_gradient_;           ///< grad v^{n+1/2} (virtual)
+  std::vector<Vec> boundary_half_velocity_;   ///< v^{n+1/2} interpolated at the particle
+  std::vector<Vec> boundary_gradient_sum_;    ///< sum_J V_J Gn_IJ over its virtual stencil
   std::array<std::vector<double>, Dim> previous_velocity_;  ///< v^n of the real particles
   std::vector<Vec> filtered_velocity_;  ///< hourglass filter scratch, per boundary slot
   // Hourglass stiffness scratch (apply_hourglass_stiffness).

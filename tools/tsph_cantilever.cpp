@@ -42,6 +42,7 @@ struct Options {
   double load = 0.0;  // 0: the case's default (1000 N in 2D, 100 N in 3D)
   double alpha = 0.6, cfl = 0.9, damping = -1.0, ramp = -1.0, hourglass = 0.02;
   double hourglass_stiffness = 0.0;
+  std::string clamp = "characteristics";
   double end_time = 3.0, tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -74,6 +75,8 @@ int run(const Options& o) {
   s.ramp_time = o.ramp;
   s.hourglass = o.hourglass;
   s.hourglass_stiffness = o.hourglass_stiffness;
+  s.clamp = o.clamp == "wall-gradient" ? SolverSettings<Dim>::VelocityWall::wall_gradient
+                                       : SolverSettings<Dim>::VelocityWall::characteristics;
   s.end_time = o.end_time;
   s.tolerance = o.tolerance;
   if (const auto errors = validate(s); !errors.empty()) {
@@ -83,10 +86,10 @@ int run(const Options& o) {
   const CantileverExact<Dim> exact(s);
   if (!o.quiet) {
     fmt::print("{}D cantilever{}: {} x {}{} real particles, dx = {} m, alpha = {}, CFL = {}, "
-               "hourglass = {}, hourglass stiffness = {}, {}\n",
+               "hourglass = {}, hourglass stiffness = {}, clamp: {}, {}\n",
                Dim, Dim == 2 ? (o.plane == "strain" ? " (plane strain)" : " (plane stress)") : "",
                s.nodes_x, s.nodes_y, Dim == 3 ? fmt::format(" x {}", s.nodes_z) : "", dx, s.alpha,
-               s.cfl, s.hourglass, s.hourglass_stiffness, o.kinematics);
+               s.cfl, s.hourglass, s.hourglass_stiffness, o.clamp, o.kinematics);
     fmt::print("exact tip deflection {:.6f} m; first mode period {:.3f} s\n",
                exact.tip_deflection(), 2.0 * M_PI / s.first_mode_frequency());
     auto last = std::make_shared<std::chrono::steady_clock::time_point>(std::chrono::steady_clock::now());
@@ -121,14 +124,14 @@ int run(const Options& o) {
     write_file_atomically(out / "summary.json", fmt::format(
         "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
         " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
-        " \"hourglass\": {}, \"hourglass_stiffness\": {}, \"real_particles\": {}, \"virtual_particles\": {},\n"
+        " \"hourglass\": {}, \"hourglass_stiffness\": {}, \"clamp\": \"{}\", \"real_particles\": {}, \"virtual_particles\": {},\n"
         " \"converged\": {}, \"time\": {:.6f}, \"steps\": {}, \"dt\": {:.6e},\n"
         " \"tip_deflection\": {:.9e}, \"tip_exact\": {:.9e}, \"tip_error_percent\": {:.6f},\n"
         " \"axis_l2_error_percent\": {:.6f}, \"wall_seconds\": {:.3f},\n"
         " \"particle_steps_per_second\": {:.6e}, \"threads\": {},\n"
         " \"gradient_fallbacks\": {}, \"interpolation_fallbacks\": {}}}\n",
         Dim, Dim == 2 ? o.plane : "none", s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1, dx,
-        s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, s.hourglass_stiffness, r.real_particles, r.virtual_particles,
+        s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, s.hourglass_stiffness, o.clamp, r.real_particles, r.virtual_particles,
         r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
         r.tip_error_percent, r.axis_l2_error_percent, r.wall_seconds, r.particle_steps_per_second,
         thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks));
@@ -176,6 +179,10 @@ int main(int argc, char** argv) {
   app.add_option("--hourglass-stiffness", o.hourglass_stiffness,
                  "hourglass stiffness kappa in [0, 1] (0: off; force on the real modes the virtual particles cannot see; diverges above about 0.25 at alpha 0.6, CFL 0.9)")
       ->capture_default_str();
+  app.add_option("--clamp", o.clamp,
+                 "stress of the clamped particles: characteristics | wall-gradient (bulk update "
+                 "with the half-step velocity gradient taken relative to the wall velocity)")
+      ->capture_default_str()->check(CLI::IsMember({"characteristics", "wall-gradient"}));
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance, "rest criterion (relative tip velocity)")
       ->capture_default_str();

@@ -1,0 +1,85 @@
+// The one-step map U^{n+1} = G U^n + f (engine/step_map.hpp), behind tsph-spectrum.
+#include "engine/cantilever_case.hpp"
+#include "engine/lattice.hpp"
+#include "engine/step_map.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace tsph {
+namespace {
+
+// The 1D bar (fixed left end, free right end, alpha 0.6): a solver and its dt.
+struct Bar {
+  std::unique_ptr<TaylorSph<1>> solver;
+  double dt = 0.0;
+};
+Bar make_bar(int particles, double cfl) {
+  const double dx = 1.0 / (particles - 1), density = 2000.0, young = 8e7;
+  LatticeBox<1> box;
+  box.lower[0] = 0.0;
+  box.node_count = {particles};
+  box.spacing = dx;
+  ParticleSet<1> real = make_real_lattice(box, density);
+  ParticleSet<1> virtual_particles = make_virtual_lattice(box, density);
+  std::vector<BoundaryCondition<1>> boundaries{BoundaryCondition<1>::fixed("left"),
+                                               BoundaryCondition<1>::free("right")};
+  real.boundary.front() = 0;
+  real.boundary.back() = 1;
+  SolverSettings<1> settings;
+  settings.smoothing_length = 0.6 * dx;
+  Bar bar;
+  bar.solver = std::make_unique<TaylorSph<1>>(std::move(real), std::move(virtual_particles),
+                                              LinearElastic<1>(young, 0.0, density), settings, boundaries);
+  bar.dt = cfl * dx / std::sqrt(young / density);
+  return bar;
+}
+
+double spectral_radius(const Eigen::MatrixXd& map) {
+  return Eigen::EigenSolver<Eigen::MatrixXd>(map, false).eigenvalues().cwiseAbs().maxCoeff();
+}
+
+// At CFL 1 the bar's scheme (Richtmyer's Lax-Wendroff with characteristic ends) is
+// exact: its map is a permutation-like shift, every |lambda| <= 1. Above CFL 1 it is
+// unstable: an eigenvalue leaves the unit circle. (A map that lost a coupling, or
+// a wrong column, would fail one or the other.)
+TEST(StepMap, BarIsStableAtCfl1AndUnstableAbove) {
+  Bar stable = make_bar(41, 1.0);
+  const auto layout = step_map_layout(*stable.solver, stable.dt);
+  ASSERT_EQ(layout.unknowns.size(), 82u);
+  const double radius = spectral_radius(assemble_step_map(*stable.solver, layout, 0.0, stable.dt));
+  EXPECT_LE(radius, 1.0 + 1e-12);
+  EXPECT_GT(radius, 1.0 - 1e-6);  // the undamped bar keeps its energy at CFL 1
+
+  Bar unstable = make_bar(41, 1.1);
+  const auto layout2 = step_map_layout(*unstable.solver, unstable.dt);
+  EXPECT_GT(spectral_radius(assemble_step_map(*unstable.solver, layout2, 0.0, unstable.dt)), 1.01);
+}
+
+// G U + f equals one ordinary solver step from U (the map is the step, and affine):
+// the 2D cantilever, 21 x 3, a random state, under the full load.
+TEST(StepMap, CantileverMapReproducesAStep) {
+  CantileverSettings<2> s;
+  s.nodes_x = 21;
+  s.nodes_y = 3;
+  CantileverModel<2> model = make_cantilever(s);
+  TaylorSph<2>& solver = *model.solver;
+  const double dt = model.time_step, t = model.ramp + model.period;
+  const auto layout = step_map_layout(solver, dt);
+  ASSERT_EQ(layout.unknowns.size(), 21u * 3u * 5u);  // plane stress: sxx, syy, sxy, vx, vy
+  const Eigen::MatrixXd map = assemble_step_map(solver, layout, 0.0, dt);
+  const auto n = static_cast<Eigen::Index>(layout.unknowns.size());
+  const Eigen::VectorXd load = apply_step(solver, layout, Eigen::VectorXd::Zero(n), t, dt);
+  EXPECT_GT(load.norm(), 0.0);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Eigen::VectorXd state(n);
+  for (Eigen::Index k = 0; k < n; ++k) state[k] = uniform(random);
+  const Eigen::VectorXd stepped = apply_step(solver, layout, state, t, dt);
+  EXPECT_LT((map * state + load - stepped).norm(), 1e-12 * stepped.norm());
+}
+
+}  // namespace
+}  // namespace tsph

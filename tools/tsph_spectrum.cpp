@@ -1,0 +1,442 @@
+// tsph-spectrum: the one-step map of the cantilever, U^{n+1} = G U^n + f, assembled
+// column by column (engine/step_map.hpp), its eigenvalues, and its fixed point.
+//
+//   tsph-spectrum [--dim 2|3] [--nx 41] [--plane stress|strain] [cantilever options]
+//
+// Prints the spectral radius, the eigenvalues of largest modulus with what their modes
+// are made of (which particles, which fields, how much of the cell-wise checkerboard the
+// virtual particles cannot see), and the fixed point U* = (I - G)^-1 f under the full
+// load: a velocity in U* is a creep at constant speed, which damping cannot remove.
+// Writes eigenvalues.csv (every eigenvalue and its mode's make-up), modes.csv (the
+// leading modes, particle by particle) and fixed_point.csv (U* per particle) to --out.
+// Exit status: 0, 2 bad input, 1 failure.
+#include "engine/cantilever_case.hpp"
+#include "engine/output_file.hpp"
+#include "engine/parallel.hpp"
+#include "engine/step_map.hpp"
+#include "tools/cli_common.hpp"
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Eigenvalues>
+#include <fmt/core.h>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <filesystem>
+#include <numeric>
+#include <string>
+
+namespace {
+
+using namespace tsph;
+using Complex = std::complex<double>;
+
+struct Options {
+  int dim = 2;
+  std::string plane = "stress";
+  int nodes_x = 41;
+  double alpha = 0.6, cfl = 0.9, damping = -1.0, hourglass = 0.02, hourglass_stiffness = 0.0;
+  std::string clamp = "characteristics";
+  int modes = 8;
+  std::string out = "out/spectrum";
+  int threads = 0;
+};
+
+/// Where a particle is: the part of the beam its mode weight is summed over.
+enum Region { kBulk, kNearClamp, kFree, kTip, kTipCorner, kClamp, kClampCorner, kRegionCount };
+constexpr const char* kRegionNames[kRegionCount] = {"bulk",   "near_clamp", "free",        "tip",
+                                                    "tip_corner", "clamp", "clamp_corner"};
+
+template <int Dim>
+struct Geometry {
+  std::vector<std::array<int, 3>> index;  ///< lattice index per real particle
+  std::vector<Region> region;
+  std::array<int, 3> count{1, 1, 1};
+  std::vector<int> at;  ///< lattice index -> particle (-1 none)
+  int particle_at(int i, int j, int k) const {
+    if (i < 0 || j < 0 || k < 0 || i >= count[0] || j >= count[1] || k >= count[2]) return -1;
+    return at[static_cast<std::size_t>((k * count[1] + j) * count[0] + i)];
+  }
+};
+
+template <int Dim>
+Geometry<Dim> classify(const TaylorSph<Dim>& solver, const CantileverSettings<Dim>& s) {
+  Geometry<Dim> g;
+  const auto& r = solver.real();
+  const double dx = s.spacing();
+  const double lower[3] = {0.0, -0.5 * s.depth, -0.5 * s.width};
+  g.count = {s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1};
+  g.at.assign(static_cast<std::size_t>(g.count[0] * g.count[1] * g.count[2]), -1);
+  for (std::size_t p = 0; p < r.size(); ++p) {
+    std::array<int, 3> idx{0, 0, 0};
+    for (int d = 0; d < Dim; ++d)
+      idx[static_cast<std::size_t>(d)] =
+          static_cast<int>(std::lround((r.initial_position[d][p] - lower[d]) / dx));
+    g.index.push_back(idx);
+    g.at[static_cast<std::size_t>((idx[2] * g.count[1] + idx[1]) * g.count[0] + idx[0])] =
+        static_cast<int>(p);
+    bool side = false;  // on a lateral face (y or z extreme)
+    for (int d = 1; d < Dim; ++d)
+      side = side || idx[static_cast<std::size_t>(d)] == 0 ||
+             idx[static_cast<std::size_t>(d)] == g.count[static_cast<std::size_t>(d)] - 1;
+    const std::int32_t b = r.boundary[p];  // 0 free, 1 tip, 2 clamp (cantilever_case)
+    Region region = kBulk;
+    if (b == 2) region = side ? kClampCorner : kClamp;
+    else if (b == 1) region = side ? kTipCorner : kTip;
+    else if (b == 0) region = kFree;
+    else if (idx[0] <= 2) region = kNearClamp;
+    g.region.push_back(region);
+  }
+  return g;
+}
+
+/// What a mode (eigenvector w) is made of.
+struct ModeMakeUp {
+  std::array<double, kRegionCount> region{};  ///< fraction of |w|^2 per region
+  double stress = 0.0, velocity = 0.0, displacement = 0.0;  ///< fraction per field
+  /// Fraction of the cell-wise Hadamard coefficients with two or more alternating axes
+  /// (the checkerboard twist(s)): what the 2^Dim corner values of a cell hold beyond their
+  /// mean and linear part, i.e. what a virtual particle at alpha 0.6 cannot see.
+  double invisible = 0.0;
+  double odd_even_x = 0.0;  ///< |second difference along x|^2 / (16 |w|^2): 1 for (-1)^i
+  std::size_t peak = 0;     ///< particle of the largest |w|
+};
+
+template <int Dim>
+ModeMakeUp make_up(const Eigen::VectorXcd& w, const StepMapLayout<Dim>& layout, const Geometry<Dim>& g) {
+  ModeMakeUp m;
+  const double total = w.squaredNorm();
+  const std::size_t particles = g.index.size();
+  // Per particle, per unknown slot: gather values to walk the lattice.
+  const std::size_t per = layout.unknowns.size() / particles;
+  std::vector<double> particle_weight(particles, 0.0);
+  for (std::size_t k = 0; k < layout.unknowns.size(); ++k) {
+    const auto& u = layout.unknowns[k];
+    const double a = std::norm(w[static_cast<Eigen::Index>(k)]);
+    m.region[g.region[u.particle]] += a / total;
+    particle_weight[u.particle] += a;
+    (u.field == StepMapUnknown::Field::stress     ? m.stress
+     : u.field == StepMapUnknown::Field::velocity ? m.velocity
+                                                  : m.displacement) += a / total;
+  }
+  m.peak = static_cast<std::size_t>(
+      std::max_element(particle_weight.begin(), particle_weight.end()) - particle_weight.begin());
+  auto value = [&](int p, std::size_t slot) { return w[static_cast<Eigen::Index>(static_cast<std::size_t>(p) * per + slot)]; };
+  double invisible = 0.0, cell_total = 0.0, second = 0.0;
+  const int kc = Dim == 3 ? g.count[2] : 1;
+  for (int k = 0; k < kc; ++k)
+    for (int j = 0; j < g.count[1]; ++j)
+      for (int i = 0; i < g.count[0]; ++i) {
+        const int p = g.particle_at(i, j, k);
+        if (i > 0 && i + 1 < g.count[0])
+          for (std::size_t slot = 0; slot < per; ++slot)
+            second += std::norm(value(g.particle_at(i - 1, j, k), slot) - 2.0 * value(p, slot) +
+                                value(g.particle_at(i + 1, j, k), slot));
+        if (i + 1 >= g.count[0] || j + 1 >= g.count[1] || (Dim == 3 && k + 1 >= kc)) continue;
+        for (std::size_t slot = 0; slot < per; ++slot)
+          for (int s = 0; s < (1 << Dim); ++s) {  // Hadamard coefficient s of the cell
+            Complex c = 0.0;
+            for (int b = 0; b < (1 << Dim); ++b) {
+              const int corner = g.particle_at(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1));
+              const int sign = __builtin_popcount(static_cast<unsigned>(s & b)) % 2 ? -1 : 1;
+              c += static_cast<double>(sign) * value(corner, slot);
+            }
+            const double a = std::norm(c);
+            cell_total += a;
+            if (__builtin_popcount(static_cast<unsigned>(s)) >= 2) invisible += a;
+          }
+      }
+  m.invisible = cell_total > 0.0 ? invisible / cell_total : 0.0;
+  m.odd_even_x = second / (16.0 * total);
+  return m;
+}
+
+template <int Dim>
+std::string field_name(const StepMapUnknown& u) {
+  static const char* axes = "xyz";
+  if (u.field == StepMapUnknown::Field::velocity) return fmt::format("v{}", axes[u.component]);
+  if (u.field == StepMapUnknown::Field::displacement) return fmt::format("u{}", axes[u.component]);
+  for (int a = 0; a < 3; ++a)
+    for (int b = a; b < 3; ++b)
+      if ((a < Dim && b < Dim && stress_index<Dim>(a, b) == u.component) ||
+          (Dim == 2 && a == 2 && b == 2 && u.component == 3))
+        return fmt::format("s{}{}", axes[a], axes[b]);
+  return fmt::format("s{}", u.component);
+}
+
+template <int Dim>
+int run(const Options& o) {
+  CantileverSettings<Dim> s;
+  s.nodes_x = o.nodes_x;
+  const double dx = s.length / (o.nodes_x - 1);
+  s.nodes_y = static_cast<int>(std::lround(s.depth / dx)) + 1;
+  s.nodes_z = static_cast<int>(std::lround(s.width / dx)) + 1;
+  s.plane_mode = o.plane == "strain" ? PlaneMode::plane_strain : PlaneMode::plane_stress;
+  s.alpha = o.alpha;
+  s.cfl = o.cfl;
+  s.damping = o.damping;
+  s.hourglass = o.hourglass;
+  s.hourglass_stiffness = o.hourglass_stiffness;
+  s.clamp = o.clamp == "wall-gradient" ? SolverSettings<Dim>::VelocityWall::wall_gradient
+                                       : SolverSettings<Dim>::VelocityWall::characteristics;
+  if (const auto errors = validate(s); !errors.empty()) {
+    for (const auto& e : errors) fmt::print(stderr, "tsph-spectrum: error: {}\n", e.message());
+    return cli::kExitBadInput;
+  }
+  CantileverModel<Dim> model = make_cantilever(s);
+  TaylorSph<Dim>& solver = *model.solver;
+  const double dt = model.time_step;
+  const StepMapLayout<Dim> layout = step_map_layout(solver, dt);
+  const auto n = static_cast<Eigen::Index>(layout.unknowns.size());
+  const Geometry<Dim> geometry = classify(solver, s);
+  fmt::print("{}D cantilever {} x {}{} ({}), alpha {}, CFL {}, damping {:.4g} 1/s, hourglass filter {}, "
+             "hourglass stiffness {}: {} unknowns\n",
+             Dim, s.nodes_x, s.nodes_y, Dim == 3 ? fmt::format(" x {}", s.nodes_z) : "",
+             Dim == 2 ? (o.plane == "strain" ? "plane strain" : "plane stress") : "3D", s.alpha,
+             s.cfl, solver.settings().damping, s.hourglass, s.hourglass_stiffness, n);
+
+  auto clock = std::chrono::steady_clock::now();
+  auto lap = [&] {
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - clock).count();
+    clock = now;
+    return seconds;
+  };
+  // G at t = 0 (any time: the step is affine), f under the full load (after the ramp).
+  const Eigen::MatrixXd map = assemble_step_map(solver, layout, 0.0, dt);
+  const double loaded_time = model.ramp + model.period;
+  const Eigen::VectorXd load = apply_step(solver, layout, Eigen::VectorXd::Zero(n), loaded_time, dt);
+  fmt::print("G assembled in {:.1f} s\n", lap());
+
+  Eigen::EigenSolver<Eigen::MatrixXd> eigen(map, true);
+  if (eigen.info() != Eigen::Success) {
+    fmt::print(stderr, "tsph-spectrum: failed: the eigenvalue iteration did not converge\n");
+    return cli::kExitFailure;
+  }
+  const Eigen::VectorXcd lambda = eigen.eigenvalues();
+  const Eigen::MatrixXcd vectors = eigen.eigenvectors();
+  fmt::print("eigen-decomposition in {:.1f} s\n", lap());
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+  std::iota(order.begin(), order.end(), Eigen::Index{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&](Eigen::Index a, Eigen::Index b) { return std::abs(lambda[a]) > std::abs(lambda[b]); });
+  int above = 0, at_one = 0, near_one = 0;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double modulus = std::abs(lambda[k]);
+    above += modulus > 1.0 + 1e-9;
+    at_one += std::abs(lambda[k] - 1.0) < 1e-8;
+    near_one += std::abs(lambda[k] - 1.0) < 1e-3;
+  }
+  fmt::print("spectral radius {:.12f}; |lambda| > 1 + 1e-9: {}; |lambda - 1| < 1e-8: {}; < 1e-3: {}\n",
+             std::abs(lambda[order[0]]), above, at_one, near_one);
+
+  std::vector<ModeMakeUp> makeup(static_cast<std::size_t>(n));
+  for (Eigen::Index k = 0; k < n; ++k)
+    makeup[static_cast<std::size_t>(k)] = make_up(Eigen::VectorXcd(vectors.col(k)), layout, geometry);
+  auto describe = [&](Eigen::Index k) {
+    const ModeMakeUp& m = makeup[static_cast<std::size_t>(k)];
+    std::string where;
+    std::array<int, kRegionCount> rank{};
+    std::iota(rank.begin(), rank.end(), 0);
+    std::sort(rank.begin(), rank.end(), [&](int a, int b) { return m.region[static_cast<std::size_t>(a)] > m.region[static_cast<std::size_t>(b)]; });
+    for (int q = 0; q < 3; ++q)
+      if (m.region[static_cast<std::size_t>(rank[static_cast<std::size_t>(q)])] > 0.05)
+        where += fmt::format("{}{} {:.0f}%", where.empty() ? "" : ", ", kRegionNames[rank[static_cast<std::size_t>(q)]],
+                             100.0 * m.region[static_cast<std::size_t>(rank[static_cast<std::size_t>(q)])]);
+    const auto& idx = geometry.index[m.peak];
+    return fmt::format("stress {:3.0f}% velocity {:3.0f}%{} | invisible {:4.2f} odd-even-x {:4.2f} | peak ({},{},{}) | {}",
+                       100.0 * m.stress, 100.0 * m.velocity,
+                       m.displacement > 0.0 ? fmt::format(" displacement {:3.0f}%", 100.0 * m.displacement) : "",
+                       m.invisible, m.odd_even_x, idx[0], idx[1], idx[2], where);
+  };
+  fmt::print("largest |lambda|:\n");
+  const int shown = std::min<int>(16, static_cast<int>(n));
+  for (int q = 0; q < shown; ++q) {
+    const Eigen::Index k = order[static_cast<std::size_t>(q)];
+    fmt::print("  {:+.9f} {:+.9f}i  |{:.9f}|  {}\n", lambda[k].real(), lambda[k].imag(),
+               std::abs(lambda[k]), describe(k));
+  }
+
+  // The fixed point under the full load, and how singular I - G is.
+  const Eigen::MatrixXd system = Eigen::MatrixXd::Identity(n, n) - map;
+  Eigen::BDCSVD<Eigen::MatrixXd> svd(system, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::VectorXd sigma = svd.singularValues();
+  fmt::print("I - G: largest singular value {:.4e}, smallest {:.4e}, {:.4e}, {:.4e}\n", sigma[0],
+             sigma[n - 1], sigma[n - 2], sigma[n - 3]);
+  fmt::print("  load f along the left singular vectors of the 3 smallest: {:.3e} {:.3e} {:.3e} (of |f| = {:.3e})\n",
+             std::abs(svd.matrixU().col(n - 1).dot(load)), std::abs(svd.matrixU().col(n - 2).dot(load)),
+             std::abs(svd.matrixU().col(n - 3).dot(load)), load.norm());
+  // The state the damped run tends to: U^n = sum_k G^(n-k) f_k -> (I - P1) U*, with U* any
+  // solution of (I - G) U* = f and P1 the spectral projector on the eigenvalue 1,
+  // P1 = V0 (U0^T V0)^-1 U0^T (V0, U0: right and left null vectors of I - G). It exists
+  // when f is orthogonal to U0 (else the state grows linearly) and U0^T V0 is regular
+  // (else a Jordan block at 1: growth too).
+  Eigen::Index nullity = 0;
+  while (nullity < n && sigma[n - 1 - nullity] < 1e-10 * sigma[0]) ++nullity;
+  Eigen::VectorXd fixed = svd.solve(load);
+  const Eigen::MatrixXd right_null = svd.matrixV().rightCols(nullity);
+  const Eigen::MatrixXd left_null = svd.matrixU().rightCols(nullity);
+  std::vector<Eigen::Index> velocity_rows;
+  for (Eigen::Index k = 0; k < n; ++k)
+    if (layout.unknowns[static_cast<std::size_t>(k)].field == StepMapUnknown::Field::velocity) velocity_rows.push_back(k);
+  if (nullity > 0) {
+    const Eigen::MatrixXd coupling = left_null.transpose() * right_null;
+    Eigen::JacobiSVD<Eigen::MatrixXd> coupling_svd(coupling);
+    const Eigen::VectorXd cs = coupling_svd.singularValues();
+    fmt::print("eigenvalue 1: {} null vectors of I - G; U0^T V0 singular values {:.3e} .. {:.3e} ({}); "
+               "load along U0 {:.3e} of |f|\n",
+               nullity, cs[0], cs[nullity - 1], cs[nullity - 1] > 1e-8 ? "semisimple: no Jordan block" : "JORDAN BLOCK",
+               (left_null.transpose() * load).norm() / load.norm());
+    fixed -= right_null * coupling.fullPivLu().solve(left_null.transpose() * fixed);
+    Eigen::MatrixXd velocity_part(static_cast<Eigen::Index>(velocity_rows.size()), nullity);
+    for (std::size_t r = 0; r < velocity_rows.size(); ++r) velocity_part.row(static_cast<Eigen::Index>(r)) = right_null.row(velocity_rows[r]);
+    Eigen::JacobiSVD<Eigen::MatrixXd> vsvd(velocity_part);
+    const Eigen::VectorXd vs = vsvd.singularValues();
+    Eigen::Index moving = 0;
+    for (Eigen::Index k = 0; k < vs.size(); ++k) moving += vs[k] > 1e-6;
+    fmt::print("  of these, {} carry a velocity (steady motion at steady stress: mechanisms); the others are "
+               "self-equilibrated stresses at rest (incompatible, as in the continuum)\n", moving);
+  }
+  const double residual = (system * fixed - load).norm() / load.norm();
+  double speed = 0.0, stress_max = 0.0, tip_velocity = 0.0;
+  std::size_t fastest = 0;
+  std::vector<double> particle_speed(geometry.index.size(), 0.0);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const auto& u = layout.unknowns[static_cast<std::size_t>(k)];
+    if (u.field == StepMapUnknown::Field::velocity) particle_speed[u.particle] += fixed[k] * fixed[k];
+    if (u.field == StepMapUnknown::Field::stress) stress_max = std::max(stress_max, std::abs(fixed[k]) * layout.stress_unit);
+    if (u.particle == model.tip && u.field == StepMapUnknown::Field::velocity && u.component == 1)
+      tip_velocity = fixed[k];
+  }
+  for (std::size_t p = 0; p < particle_speed.size(); ++p)
+    if (particle_speed[p] > speed) speed = particle_speed[p], fastest = p;
+  speed = std::sqrt(speed);
+  const CantileverExact<Dim> exact(s);
+  fmt::print("limit state (I - P1) U* under the full load (residual {:.2e}): largest |v| {:.4e} m/s at particle "
+             "({},{},{}) [{}], tip v_y {:.4e} m/s = {:.3g} exact tip deflections per second; largest |sigma| {:.4e} Pa\n",
+             residual, speed, geometry.index[fastest][0], geometry.index[fastest][1], geometry.index[fastest][2],
+             kRegionNames[geometry.region[fastest]], tip_velocity, tip_velocity / exact.tip_deflection(), stress_max);
+
+  // The displacement rate in the limit state: one step from it, displacement from zero.
+  {
+    StepMapLayout<Dim> with_displacement = layout;
+    if (!(solver.settings().hourglass_stiffness > 0.0))  // else the layout holds them
+      for (std::uint32_t p = 0; p < geometry.index.size(); ++p)
+        for (int d = 0; d < Dim; ++d)
+          with_displacement.unknowns.push_back({p, StepMapUnknown::Field::displacement, d});
+    Eigen::VectorXd state = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(with_displacement.unknowns.size()));
+    state.head(n) = fixed;
+    const Eigen::VectorXd next = apply_step(solver, with_displacement, state, loaded_time, dt);
+    double tip_rate = 0.0, largest_rate = 0.0;
+    for (std::size_t k = 0; k < with_displacement.unknowns.size(); ++k) {
+      const auto& u = with_displacement.unknowns[k];
+      if (u.field != StepMapUnknown::Field::displacement) continue;
+      const auto e = static_cast<Eigen::Index>(k);
+      const double rate = (next[e] - state[e]) * with_displacement.displacement_unit / dt;
+      largest_rate = std::max(largest_rate, std::abs(rate));
+      if (u.particle == model.tip && u.component == 1) tip_rate = rate;
+    }
+    fmt::print("displacement rate in the limit state: tip du_y/dt {:.4e} m/s = {:.3g} exact tip "
+               "deflections per second (the creep); largest |du/dt| {:.4e} m/s\n",
+               tip_rate, tip_rate / exact.tip_deflection(), largest_rate);
+  }
+
+  // Files.
+  const std::filesystem::path out(o.out);
+  std::string csv = "rank,re,im,abs,stress,velocity,displacement,invisible,odd_even_x,peak_i,peak_j,peak_k";
+  for (const char* name : kRegionNames) csv += fmt::format(",{}", name);
+  csv += "\n";
+  for (Eigen::Index q = 0; q < n; ++q) {
+    const Eigen::Index k = order[static_cast<std::size_t>(q)];
+    const ModeMakeUp& m = makeup[static_cast<std::size_t>(k)];
+    const auto& idx = geometry.index[m.peak];
+    fmt::format_to(std::back_inserter(csv), "{},{:.15g},{:.15g},{:.15g},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{}", q,
+                   lambda[k].real(), lambda[k].imag(), std::abs(lambda[k]), m.stress, m.velocity,
+                   m.displacement, m.invisible, m.odd_even_x, idx[0], idx[1], idx[2]);
+    for (double f : m.region) fmt::format_to(std::back_inserter(csv), ",{:.6f}", f);
+    csv += "\n";
+  }
+  write_file_atomically(out / "eigenvalues.csv", csv);
+  const std::size_t per = layout.unknowns.size() / geometry.index.size();
+  std::string header = "i,j,k,x,y,z,region";
+  for (std::size_t slot = 0; slot < per; ++slot) header += "," + field_name<Dim>(layout.unknowns[slot]);
+  std::string modes = "mode,re,im," + header + "\n";
+  for (int q = 0; q < std::min<int>(o.modes, static_cast<int>(n)); ++q) {
+    const Eigen::Index k = order[static_cast<std::size_t>(q)];
+    Eigen::VectorXcd w = vectors.col(k);
+    Eigen::Index peak = 0;
+    w.cwiseAbs().maxCoeff(&peak);
+    w *= std::abs(w[peak]) / w[peak];  // phase: the largest entry real and positive
+    w /= w.cwiseAbs().maxCoeff();
+    for (std::size_t p = 0; p < geometry.index.size(); ++p) {
+      const auto& idx = geometry.index[p];
+      fmt::format_to(std::back_inserter(modes), "{},{:.12g},{:.12g},{},{},{},{:.6g},{:.6g},{:.6g},{}", q,
+                     lambda[k].real(), lambda[k].imag(), idx[0], idx[1], idx[2], idx[0] * dx,
+                     idx[1] * dx - 0.5 * s.depth, Dim == 3 ? idx[2] * dx - 0.5 * s.width : 0.0,
+                     kRegionNames[geometry.region[p]]);
+      for (std::size_t slot = 0; slot < per; ++slot)
+        fmt::format_to(std::back_inserter(modes), ",{:.6e}", w[static_cast<Eigen::Index>(p * per + slot)].real());
+      modes += "\n";
+    }
+  }
+  write_file_atomically(out / "modes.csv", modes);
+  std::string fixed_csv = header + "\n";
+  for (std::size_t p = 0; p < geometry.index.size(); ++p) {
+    const auto& idx = geometry.index[p];
+    fmt::format_to(std::back_inserter(fixed_csv), "{},{},{},{:.6g},{:.6g},{:.6g},{}", idx[0], idx[1], idx[2],
+                   idx[0] * dx, idx[1] * dx - 0.5 * s.depth, Dim == 3 ? idx[2] * dx - 0.5 * s.width : 0.0,
+                   kRegionNames[geometry.region[p]]);
+    for (std::size_t slot = 0; slot < per; ++slot) {
+      const auto& u = layout.unknowns[p * per + slot];
+      fmt::format_to(std::back_inserter(fixed_csv), ",{:.9e}",
+                     fixed[static_cast<Eigen::Index>(p * per + slot)] * detail::unit_of(layout, u));
+    }
+    fixed_csv += "\n";
+  }
+  write_file_atomically(out / "fixed_point.csv", fixed_csv);
+  fmt::print("SVD, analysis and files in {:.1f} s; output in {}\n", lap(), o.out);
+  return cli::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"tsph-spectrum: eigenvalues and fixed point of the cantilever's one-step map"};
+  app.add_option("--dim", o.dim, "2 or 3")->capture_default_str()->check(CLI::IsMember({2, 3}));
+  app.add_option("--plane", o.plane, "2D model: stress | strain")
+      ->capture_default_str()->check(CLI::IsMember({"stress", "strain"}));
+  app.add_option("--nx", o.nodes_x, "real particles along the length")->capture_default_str();
+  app.add_option("--alpha", o.alpha, "h / dx")->capture_default_str();
+  app.add_option("--cfl", o.cfl, "dt = CFL dx / c_p")->capture_default_str();
+  app.add_option("--damping", o.damping, "velocity damping c (1/s); < 0: 2 omega_1")->capture_default_str();
+  app.add_option("--hourglass", o.hourglass, "surface hourglass filter coefficient in [0, 1)")->capture_default_str();
+  app.add_option("--hourglass-stiffness", o.hourglass_stiffness, "hourglass stiffness kappa in [0, 1]")
+      ->capture_default_str();
+  app.add_option("--clamp", o.clamp,
+                 "stress of the clamped particles: characteristics | wall-gradient (bulk update "
+                 "with the half-step velocity gradient taken relative to the wall velocity)")
+      ->capture_default_str()->check(CLI::IsMember({"characteristics", "wall-gradient"}));
+  app.add_option("--modes", o.modes, "leading modes written to modes.csv")->capture_default_str();
+  app.add_option("--out", o.out, "output directory")->capture_default_str();
+  app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");
+  if (const auto stop = cli::parse(app, argc, argv)) return *stop;
+  if (o.nodes_x < 3) {
+    fmt::print(stderr, "tsph-spectrum: error: nx = {} is invalid: needs at least 3\n", o.nodes_x);
+    return cli::kExitBadInput;
+  }
+  set_thread_count(o.threads);
+  if (!cli::prepare_output_directory("tsph-spectrum", o.out)) return cli::kExitBadInput;
+  try {
+    return o.dim == 2 ? run<2>(o) : run<3>(o);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "tsph-spectrum: error: {}\n", e.what());
+    return cli::kExitBadInput;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "tsph-spectrum: failed: {}\n", e.what());
+    return cli::kExitFailure;
+  }
+}
