@@ -7,14 +7,17 @@
 //      particle with the normalised kernel, then
 //        U_v^{n+1/2} = U_v^n + dt/2 [ S_v^n - div F ],
 //      the divergence from sum_r V_r (F_r^n - F_v^n) . Gn_vr;
+//      [conservative momentum option: the half step's gradient weights are stored;
+//      updated Lagrangian: both sets move to the midpoint configuration]
 //   2. full_step (virtual -> real), seed eq. (4):
 //        U_r^{n+1} = U_r^n + dt [ S_r^{n+1/2} - div F ],
 //      with F_r^{n+1/2} interpolated from the virtual neighbours (DESIGN.md 3.2);
-//   3. boundary conditions at n+1 by characteristics (below); then the hourglass
-//      stiffness (if enabled, apply_hourglass_stiffness);
+//   3. boundary conditions at n+1 by characteristics (below); [the conservative
+//      momentum update, if enabled]; then the hourglass stiffness (if enabled,
+//      apply_hourglass_stiffness);
 //   4. hourglass filter of the traction-surface particles' velocities (if enabled);
-//   5. displacements; in updated-Lagrangian mode: move both sets, update density,
-//      rebuild the neighbour lists and normals.
+//   5. displacements; in updated-Lagrangian mode: the second half of the motion of
+//      both sets, then rebuild the neighbour lists and normals.
 //
 // The flux divergence is written per field: the velocity gradient grad v (which
 // gives D : d and the Jaumann spin, seed eq. 1a) and the stress divergence div sigma
@@ -1081,8 +1084,15 @@ class TaylorSph {
   /// In updated-Lagrangian runs each half-step list is rebuilt every step and used once,
   /// so only one is held at a time: virtual_from_real_ from the rebuild to the half
   /// step, real_from_virtual_ built at the start of the full step. This halves the
-  /// memory of the lists (bench/RESULTS.md, memory) at no cost in time.
-  bool lists_used_once() const { return settings_.kinematics == Kinematics::updated_lagrangian; }
+  /// memory of the lists (bench/RESULTS.md, memory) at no cost in time. Not with the
+  /// hourglass stiffness, which reads both lists after the full step (released, they
+  /// made it read past the end of an empty list: a crash in every updated-Lagrangian run
+  /// with the stiffness on); the full step then uses the list built at n, with the
+  /// midpoint positions (pairs that cross the support edge in half a step have weights
+  /// near zero).
+  bool lists_used_once() const {
+    return settings_.kinematics == Kinematics::updated_lagrangian && settings_.hourglass_stiffness == 0.0;
+  }
 
   /// Neighbour lists of both half-steps and of the real set, and the boundary normals
   /// n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body).
