@@ -7,14 +7,17 @@
 //      particle with the normalised kernel, then
 //        U_v^{n+1/2} = U_v^n + dt/2 [ S_v^n - div F ],
 //      the divergence from sum_r V_r (F_r^n - F_v^n) . Gn_vr;
+//      [conservative momentum option: the half step's gradient weights are stored;
+//      updated Lagrangian: both sets move to the midpoint configuration]
 //   2. full_step (virtual -> real), seed eq. (4):
 //        U_r^{n+1} = U_r^n + dt [ S_r^{n+1/2} - div F ],
 //      with F_r^{n+1/2} interpolated from the virtual neighbours (DESIGN.md 3.2);
-//   3. boundary conditions at n+1 by characteristics (below); then the hourglass
-//      stiffness (if enabled, apply_hourglass_stiffness);
+//   3. boundary conditions at n+1 by characteristics (below); [the conservative
+//      momentum update, if enabled]; then the hourglass stiffness (if enabled,
+//      apply_hourglass_stiffness);
 //   4. hourglass filter of the traction-surface particles' velocities (if enabled);
-//   5. displacements; in updated-Lagrangian mode: move both sets, update density,
-//      rebuild the neighbour lists and normals.
+//   5. displacements; in updated-Lagrangian mode: the second half of the motion of
+//      both sets, then rebuild the neighbour lists and normals.
 //
 // The flux divergence is written per field: the velocity gradient grad v (which
 // gives D : d and the Jaumann spin, seed eq. 1a) and the stress divergence div sigma
@@ -108,6 +111,14 @@ struct SolverSettings {
   /// cantilever's one-step map has a fixed point that rotates about the clamp (the creep).
   enum class VelocityWall { characteristics, wall_gradient };
   VelocityWall velocity_wall = VelocityWall::characteristics;
+  /// Momentum update in conservative (weak, Galerkin) form instead of the corrected
+  /// divergence (option, off by default; README, Known problems): the velocity of every
+  /// real particle without a velocity condition or a non-zero traction gets
+  ///   m_I dv_I/dt = -sum_v V_v sigma_v^{n+1/2} . D_vI,
+  /// D_vI the weight of I in the half step's corrected gradient at v (sum_I D_vI = 0),
+  /// so that every virtual particle's forces sum to zero: linear momentum is conserved
+  /// to round-off without external loads, and free surfaces are natural (zero traction).
+  bool conservative_momentum = false;
 };
 
 /// What the run did; fallbacks are counted per stencil evaluation.
@@ -292,8 +303,11 @@ class TaylorSph {
     visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) {
       boundary_gradients(kernel);
       half_step(kernel, dt);
+      if (settings_.conservative_momentum) store_momentum_weights(kernel);
+      if (settings_.kinematics == Kinematics::updated_lagrangian) move_to_midpoint(dt);
       full_step(kernel, dt);
       apply_boundary_conditions(dt, time_ + dt);
+      if (settings_.conservative_momentum) apply_conservative_momentum(dt, time_ + dt);
       if (settings_.hourglass_stiffness > 0.0) apply_hourglass_stiffness(kernel, dt);
       if (settings_.hourglass_coefficient > 0.0) filter_hourglass(kernel);
     });
@@ -713,7 +727,7 @@ class TaylorSph {
         Mat gradient_estimate = velocity_dt;
         gradient_estimate.col(0) = velocity_dn;
         const Mat spin_estimate = 0.5 * (gradient_estimate - gradient_estimate.transpose());
-        jaumann = spin_estimate * stress0 - stress0 * spin_estimate;
+        jaumann = objective_rotation_rate<Dim>(spin_estimate, stress0, dt);
       }
       // Outgoing invariants at n+1.
       double tangential_divergence = 0.0;  // div_t v_t
@@ -762,7 +776,7 @@ class TaylorSph {
             ((stress1(0, k) - stress0(0, k)) / dt - jaumann(0, k)) / shear - velocity_dt(0, k);
       const Mat spin = 0.5 * (gradient - gradient.transpose());
       const Mat rotation_rate = settings_.kinematics == Kinematics::updated_lagrangian
-                                    ? Mat(spin * stress0 - stress0 * spin)
+                                    ? Mat(objective_rotation_rate<Dim>(spin, stress0, dt))
                                     : Mat(Mat::Zero());
       const double volumetric = gradient.trace();
       for (int k = 1; k < Dim; ++k)
@@ -812,6 +826,78 @@ class TaylorSph {
       real_.density[i] = boundary_density_[b] * std::exp(-dt * gradient.trace());
       real_.volume[i] = real_.mass[i] / real_.density[i];
     }
+  }
+
+  /// Conservative momentum (SolverSettings::conservative_momentum), part 1, right after
+  /// the half step: the weights D_vJ = G_vJ - Wn_vJ sum_K G_vK of the half step's
+  /// corrected gradient (grad f)_v = sum_J D_vJ f_J (configuration n), per pair of
+  /// virtual_from_real_, and the transposed pair list (rows: real particles, entries:
+  /// pair indices in increasing virtual order, so the sums are deterministic).
+  template <class Kernel>
+  void store_momentum_weights(const Kernel& kernel) {
+    const PointsView<Dim> source_points = points_of<Dim>(real_);
+    const ParticleView<Dim> target = virtual_.view();
+    momentum_weight_.resize(virtual_from_real_.pair_count());
+    parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
+        target.count, [&](std::size_t q, StencilWeights<Dim>& w, StencilCounts&) {
+          const auto nb = virtual_from_real_.neighbors(q);
+          const std::size_t first = virtual_from_real_.offsets[q];
+          const StencilStatus status =
+              compute_stencil<Dim>(kernel, settings_.smoothing_length, target.position_of(q),
+                                   source_points, real_.volume.data(), nb,
+                                   settings_.interpolation, w);
+          Vec sum = Vec::Zero();
+          for (std::size_t k = 0; k < nb.size(); ++k) sum += w.gradient[k];
+          for (std::size_t k = 0; k < nb.size(); ++k)
+            momentum_weight_[first + k] =
+                status.no_neighbors ? Vec(Vec::Zero()) : Vec(w.gradient[k] - w.value[k] * sum);
+        });
+    momentum_pairs_.offsets.assign(real_.size() + 1, 0);
+    for (std::uint32_t j : virtual_from_real_.indices) ++momentum_pairs_.offsets[j + 1];
+    for (std::size_t i = 0; i < real_.size(); ++i)
+      momentum_pairs_.offsets[i + 1] += momentum_pairs_.offsets[i];
+    momentum_pair_.resize(virtual_from_real_.pair_count());
+    momentum_pair_virtual_.resize(virtual_from_real_.pair_count());
+    std::vector<std::uint64_t> fill(momentum_pairs_.offsets.begin(), momentum_pairs_.offsets.end() - 1);
+    for (std::size_t q = 0; q < virtual_.size(); ++q)
+      for (std::uint64_t p = virtual_from_real_.offsets[q]; p < virtual_from_real_.offsets[q + 1]; ++p) {
+        const std::uint64_t slot = fill[virtual_from_real_.indices[p]]++;
+        momentum_pair_[slot] = p;
+        momentum_pair_virtual_[slot] = static_cast<std::uint32_t>(q);
+      }
+  }
+
+  /// Conservative momentum, part 2, after the boundary conditions: for every real
+  /// particle without a velocity condition or a non-zero prescribed traction,
+  ///   v_I^{n+1} = v_I^n + dt (F_I / m_I + b - c v_I^n),
+  ///   F_I = -sum_v V_v^{n+1/2} sigma_v^{n+1/2} . D_vI.
+  /// sum_I D_vI = 0 for every v, so sum_I F_I = 0 (linear momentum exact without loads);
+  /// sum_I v_I . F_I = -sum_v V_v sigma_v : (grad v)_v (the stress power at the virtual
+  /// particles). A free surface is natural: its particles collect the flux the bulk
+  /// sends them (zero traction). Their stress still comes from the characteristics.
+  void apply_conservative_momentum(double dt, double t_new) {
+    const ParticleView<Dim> source = virtual_.view();
+    parallel_for(real_.size(), [&](std::size_t i) {
+      if (const std::int32_t b = boundary_slot_[i]; b >= 0) {
+        const auto& condition = boundaries_[static_cast<std::size_t>(real_.boundary[i])];
+        if (condition.kind == BoundaryCondition<Dim>::Kind::velocity) return;
+        const Vec traction =
+            condition.prescribed(initial_position_of(i), boundary_profile_[static_cast<std::size_t>(b)], t_new);
+        if (traction.squaredNorm() > 0.0) return;  // a loaded surface keeps its characteristics
+      }
+      Vec force = Vec::Zero();
+      for (std::uint64_t slot = momentum_pairs_.offsets[i]; slot < momentum_pairs_.offsets[i + 1]; ++slot) {
+        const std::uint32_t q = momentum_pair_virtual_[slot];
+        const Vec& weight = momentum_weight_[momentum_pair_[slot]];
+        for (int a = 0; a < Dim; ++a)
+          for (int l = 0; l < Dim; ++l)
+            force[a] -= source.volume[q] * source.stress[stress_index<Dim>(a, l)][q] * weight[l];
+      }
+      for (int d = 0; d < Dim; ++d)
+        real_.velocity[d][i] = previous_velocity_[d][i] +
+                               dt * (force[d] / real_.mass[i] + settings_.body_force[d] -
+                                     settings_.damping * previous_velocity_[d][i]);
+    });
   }
 
   /// One linear least-squares fit u(X) ~ a + B (X - X_0) over a stencil (see
@@ -998,22 +1084,48 @@ class TaylorSph {
       for (int d = 0; d < Dim; ++d) real_.velocity[d][boundary_particles_[b]] = filtered_velocity_[b][d];
   }
 
+  /// Step 1b (updated Lagrangian): both sets to the midpoint configuration x^{n+1/2},
+  /// where the full step takes the velocity gradient L^{n+1/2} (midpoint rule,
+  /// L^{n+1/2} dt = d(x^{n+1} - x^n) / d x^{n+1/2}): virtual particles by dt/2 v^{n+1/2}
+  /// (half their straight path), real ones by dt/2 v^n (a predictor; their position
+  /// enters the full step's kernel weights only, not its linear exactness). Taken at
+  /// x^n instead, the gradient of v^{n+1/2} misses the half step's own motion: in a
+  /// rigid rotation whose stress carries the centripetal acceleration, v^{n+1/2} =
+  /// (omega J - dt/2 omega^2) (x^n - c) has divergence -omega^2 dt, a spurious
+  /// compression that grew the pressure linearly in time (README, objectivity). In the
+  /// midpoint configuration its gradient is skew to O(dt^2). A non-finite velocity
+  /// leaves its particle where it is (check_stability reports it).
+  void move_to_midpoint(double dt) {
+    const double half_dt = 0.5 * dt;
+    parallel_for(real_.size(), [&](std::size_t i) {
+      for (int d = 0; d < Dim; ++d)
+        if (std::isfinite(real_.velocity[d][i])) real_.position[d][i] += half_dt * real_.velocity[d][i];
+    });
+    parallel_for(virtual_.size(), [&](std::size_t i) {
+      for (int d = 0; d < Dim; ++d)
+        if (std::isfinite(virtual_.velocity[d][i]))
+          virtual_.position[d][i] += half_dt * virtual_.velocity[d][i];
+    });
+  }
+
   /// Step 5: displacements with the mean of v^n and v^{n+1}; in updated-Lagrangian
-  /// mode the real particles move so, the virtual ones with v^{n+1/2}.
+  /// mode the real particles move so, the virtual ones with v^{n+1/2}: both sets are
+  /// at the midpoint configuration (move_to_midpoint), so the real ones take the
+  /// second half dt/2 v^{n+1}, the virtual ones dt/2 v^{n+1/2}.
   void move(double dt) {
     const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
+    const double half_dt = 0.5 * dt;
     parallel_for(real_.size(), [&](std::size_t i) {
       for (int d = 0; d < Dim; ++d) {
-        const double du = 0.5 * dt * (previous_velocity_[d][i] + real_.velocity[d][i]);
-        real_.displacement[d][i] += du;
-        if (moving) real_.position[d][i] += du;
+        real_.displacement[d][i] += half_dt * (previous_velocity_[d][i] + real_.velocity[d][i]);
+        if (moving) real_.position[d][i] += half_dt * real_.velocity[d][i];
       }
     });
     if (moving)
       parallel_for(virtual_.size(), [&](std::size_t i) {
         for (int d = 0; d < Dim; ++d) {
           virtual_.displacement[d][i] += dt * virtual_.velocity[d][i];
-          virtual_.position[d][i] += dt * virtual_.velocity[d][i];
+          virtual_.position[d][i] += half_dt * virtual_.velocity[d][i];
         }
       });
   }
@@ -1021,8 +1133,15 @@ class TaylorSph {
   /// In updated-Lagrangian runs each half-step list is rebuilt every step and used once,
   /// so only one is held at a time: virtual_from_real_ from the rebuild to the half
   /// step, real_from_virtual_ built at the start of the full step. This halves the
-  /// memory of the lists (bench/RESULTS.md, memory) at no cost in time.
-  bool lists_used_once() const { return settings_.kinematics == Kinematics::updated_lagrangian; }
+  /// memory of the lists (bench/RESULTS.md, memory) at no cost in time. Not with the
+  /// hourglass stiffness, which reads both lists after the full step (released, they
+  /// made it read past the end of an empty list: a crash in every updated-Lagrangian run
+  /// with the stiffness on); the full step then uses the list built at n, with the
+  /// midpoint positions (pairs that cross the support edge in half a step have weights
+  /// near zero).
+  bool lists_used_once() const {
+    return settings_.kinematics == Kinematics::updated_lagrangian && settings_.hourglass_stiffness == 0.0;
+  }
 
   /// Neighbour lists of both half-steps and of the real set, and the boundary normals
   /// n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body).
@@ -1147,6 +1266,11 @@ class TaylorSph {
   std::vector<LinearFitWeights> return_fit_;    ///< R, per real particle
   std::vector<Vec> virtual_value_;              ///< a_v, then s_v
   std::vector<Vec> round_trip_residual_;        ///< V_I r_I
+  // Conservative momentum scratch (store_momentum_weights).
+  std::vector<Vec> momentum_weight_;          ///< D_vJ per pair of virtual_from_real_
+  NeighborList momentum_pairs_;               ///< offsets only: rows of real particles
+  std::vector<std::uint64_t> momentum_pair_;  ///< pair index, row by real particle
+  std::vector<std::uint32_t> momentum_pair_virtual_;  ///< its virtual particle
   NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)
   NeighborList hourglass_to_real_;       ///< its transpose
   double hourglass_radius_ = 0.0;

@@ -1,8 +1,9 @@
 // Solver-level invariants in 2D: energy of a free vibrating block (it never rises; the
 // measured loss is bounded), linear momentum without loads (measured bound: the
-// corrected-gradient scheme is not pairwise antisymmetric), velocity fields as boundary
-// conditions, and the hourglass stiffness (no force on linear fields, a restoring force
-// on the invisible modes, momentum conserved to round-off).
+// corrected-gradient scheme is not pairwise antisymmetric; exact with the
+// conservative-momentum option), velocity fields as boundary conditions, objectivity
+// in a rigid rotation, and the hourglass stiffness (no force on linear fields, a
+// restoring force on the invisible modes, momentum conserved to round-off).
 #include "engine/lattice.hpp"
 #include "engine/region.hpp"
 #include "engine/taylor_sph.hpp"
@@ -110,6 +111,79 @@ TEST(Conservation, FreeBlockMomentumDriftIsBounded) {
   EXPECT_LT(drift, 1e-2);
 }
 
+// The same block with SolverSettings::conservative_momentum (the weak form
+// m_I dv_I/dt = -sum_v V_v sigma_v . D_vI): linear momentum is conserved to round-off
+// over 1000 steps (measured 5e-16 of sum m|v|), and the total energy never rises.
+TEST(Conservation, ConservativeMomentumOptionConservesMomentumExactly) {
+  const auto box = square(21);
+  ParticleSet<2> real = make_real_lattice(box, kDensity);
+  auto virtual_particles = make_virtual_lattice(box, kDensity);
+  assign_faces(real, box, 0);
+  const double length = 20 * kDx;
+  for (std::size_t i = 0; i < real.size(); ++i) {
+    const double x = real.position[0][i] / length, y = real.position[1][i] / length;
+    real.velocity[0][i] = 0.01 * (std::cos(M_PI * x) + 0.5 * std::cos(2 * M_PI * y) * std::cos(M_PI * x));
+    real.velocity[1][i] = 0.01 * (std::cos(M_PI * y) * std::cos(3 * M_PI * x) + 0.3 * std::cos(2 * M_PI * x));
+  }
+  SolverSettings<2> settings;
+  settings.smoothing_length = 0.6 * kDx;
+  settings.conservative_momentum = true;
+  const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
+  TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
+                      {BoundaryCondition<2>::free("faces")});
+  const double scale = momentum_scale(solver.real());
+  const Vector<2> p0 = solver.linear_momentum();
+  const double dt = 0.9 * kDx / material.p_wave_speed(kDensity);
+  const double initial = solver.kinetic_energy() + solver.strain_energy();
+  double drift = 0.0, highest = initial;
+  for (int k = 0; k < 1000; ++k) {
+    solver.step(dt);
+    drift = std::max(drift, (solver.linear_momentum() - p0).norm() / scale);
+    highest = std::max(highest, solver.kinetic_energy() + solver.strain_energy());
+  }
+  std::printf("free block, conservative momentum: drift %.3e of sum m|v|, energy max %.6f\n", drift,
+              highest / initial);
+  EXPECT_LT(drift, 1e-13);
+  EXPECT_LE(highest, initial * (1.0 + 1e-9));
+}
+
+// ... and its force is the divergence of a linear stress field deeper than one spacing
+// from the free faces (alpha 0.6): one tiny step from rest gives rho dv/dt = div sigma
+// there to round-off. Next to the faces it is not (measured 8-17 % in the first
+// interior row at alpha 0.6, several hundred percent three rows deep at alpha 1.2: the
+// weak form's integration constraint fails at the surface; README, Known problems).
+TEST(Conservation, ConservativeMomentumIsConsistentInTheBulk) {
+  const auto box = square(15);
+  ParticleSet<2> real = make_real_lattice(box, kDensity);
+  auto virtual_particles = make_virtual_lattice(box, kDensity);
+  assign_faces(real, box, 0);
+  for (std::size_t i = 0; i < real.size(); ++i) {
+    const double x = real.position[0][i], y = real.position[1][i];
+    real.stress[0][i] = 1e6 * (1 + 3 * x + 2 * y);
+    real.stress[1][i] = 1e6 * (1 - x + 5 * y);
+    real.stress[2][i] = 1e6 * (2 * x - 4 * y);
+  }
+  const Vector<2> divergence(1e6 * (3 - 4), 1e6 * (2 + 5));
+  SolverSettings<2> settings;
+  settings.smoothing_length = 0.6 * kDx;
+  settings.conservative_momentum = true;
+  const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
+  TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
+                      {BoundaryCondition<2>::free("faces")});
+  const double dt = 1e-9;
+  solver.step(dt);
+  const auto& r = solver.real();
+  int checked = 0;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    const double x = r.position[0][i] / kDx, y = r.position[1][i] / kDx;
+    if (std::min({x, y, 14 - x, 14 - y}) < 1.5) continue;
+    for (int d = 0; d < 2; ++d)
+      ASSERT_NEAR(kDensity * r.velocity[d][i] / dt, divergence[d], 1e-8 * divergence.norm()) << i;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 11 * 11);
+}
+
 // A velocity condition given as a field v(x0, t) (not a time function times a profile,
 // e.g. a rigid rotation) is imposed as such: a block whose particles all carry it (the
 // interior ones directly, the face ones through the characteristic relations) moves
@@ -142,17 +216,21 @@ TEST(VelocityField, IsImposedAtEveryParticle) {
 
 // Objectivity at solver level: a block pre-stressed uniformly (sigma_xx = 3e7,
 // sigma_yy = -1e7 Pa; the rate form is linear, the size of the pre-stress is only a
-// scale) turned rigidly about its centre by a quarter turn, every particle held to the
-// rigid-rotation velocity (interior particles directly, face particles through the
-// characteristic relations), updated Lagrangian, alpha 1.2, 2000 steps at CFL 0.5
-// (dt = 2.15e-5 s, omega = 36.5 rad/s). The centripetal stress the rotation needs,
-// rho omega^2 r^2 ~ 1.3e4 Pa, is 4e-4 of the pre-stress. The axes turn with the body
-// (sigma_yy is now 3e7) and every real particle keeps its principal stresses within 1e-2
-// relative: measured 5.7e-3 (4.1e-3 away from the faces), mostly an isotropic
-// compression of about 1e5 Pa; the issue asks for 1e-3, which we do not reach yet
-// (README, Known problems). Without the Jaumann terms in the characteristic relations
-// the face particles do not rotate their stress at all (relative change 2.1).
-TEST(Objectivity, PreStressedBlockInRigidRotationKeepsPrincipalStresses) {
+// scale) turned rigidly about its centre by a quarter turn in 0.0431 s (omega = 36.5
+// rad/s), every particle held to the rigid-rotation velocity (interior particles
+// directly, face particles through the characteristic relations), updated Lagrangian,
+// alpha 1.2, 2000 steps at CFL 0.5 (dt = 2.155e-5 s). The axes turn with the body
+// (sigma_yy is now 3e7) and every real particle keeps its stress within 1e-3 of the
+// pre-stress (the issue's bound): measured 2.7e-4 (2.1e-4 away from the faces), of the
+// order of the centripetal stress rho omega^2 r^2 ~ 1.3e4 Pa = 4e-4 of it. Two things
+// make it so (README, Known problems): the full step takes the velocity gradient in the
+// midpoint configuration (move_to_midpoint; without it 3.3e-3, a spurious compression
+// growing linearly in time), and the face particles rotate their stress by the
+// Hughes-Winget rotation (objective_rotation_rate; with forward Euler on
+// W sigma - sigma W, 3.1e-3).
+// Returns the worst relative change over every real particle (and prints it with the
+// worst away from the faces); checks that the particles went round with the body.
+double quarter_turn_stress_change(double cfl) {
   const auto box = square(11);
   ParticleSet<2> real = make_real_lattice(box, kDensity);
   auto virtual_particles = make_virtual_lattice(box, kDensity);
@@ -165,8 +243,8 @@ TEST(Objectivity, PreStressedBlockInRigidRotationKeepsPrincipalStresses) {
   }
   const Vector<2> centre(5 * kDx, 5 * kDx);
   const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
-  const int steps = 2000;
-  const double dt = 0.5 * kDx / material.p_wave_speed(kDensity);
+  const int steps = static_cast<int>(std::lround(1000 / cfl));
+  const double dt = cfl * kDx / material.p_wave_speed(kDensity);
   const double omega = 0.5 * M_PI / (steps * dt);
   auto rotation = [omega, centre](const Vector<2>& x0, double t) {
     const double c = std::cos(omega * t), s = std::sin(omega * t);
@@ -196,15 +274,51 @@ TEST(Objectivity, PreStressedBlockInRigidRotationKeepsPrincipalStresses) {
     const double x0 = r.initial_position[0][i] / kDx, y0 = r.initial_position[1][i] / kDx;
     if (x0 > 0.5 && x0 < 9.5 && y0 > 0.5 && y0 < 9.5) worst_interior = std::max(worst_interior, change);
   }
-  std::printf("rigid rotation: worst relative principal-stress change %.3e (interior %.3e)\n", worst,
-              worst_interior);
-  EXPECT_LT(worst, 1e-2);
+  std::printf("rigid rotation, CFL %g (%d steps, dt = %.4g s): worst relative principal-stress change "
+              "%.3e (interior %.3e)\n", cfl, steps, dt, worst, worst_interior);
   // The particles went round with the body: the corner (0, 0) is now at (2 c_x, 0).
   for (std::size_t i = 0; i < r.size(); ++i)
     if (r.id[i] == 0) {
       EXPECT_NEAR(r.position[0][i], 2 * centre[0], 1e-2 * kDx);
       EXPECT_NEAR(r.position[1][i], 0.0, 1e-2 * kDx);
     }
+  return worst;
+}
+
+TEST(Objectivity, PreStressedBlockInRigidRotationKeepsPrincipalStresses) {
+  EXPECT_LT(quarter_turn_stress_change(0.5), 1e-3);  // measured 2.7e-4
+}
+
+// ... also at CFL 1 (1000 steps, dt = 4.31e-5 s): measured 4.1e-4 (before the fix 1.1e-2;
+// midpoint configuration alone 8.5e-3, Hughes-Winget alone 6.2e-3).
+TEST(Objectivity, RigidRotationAtCflOne) { EXPECT_LT(quarter_turn_stress_change(1.0), 1e-3); }
+
+// The incremental objective rotation (Hughes-Winget) used by the face particles'
+// characteristic relations: a random 3D stress turned by a random spin keeps its
+// eigenvalues to round-off even at a large step (W dt ~ 1), where the forward-Euler
+// update sigma + dt (W sigma - sigma W) changes them by tens of percent; at a small step
+// the rate equals the Jaumann terms W sigma - sigma W to O(dt).
+TEST(Objectivity, HughesWingetRotationKeepsEigenvalues) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  Eigen::Matrix3d a, w;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) a(i, j) = unit(rng), w(i, j) = unit(rng);
+  const Eigen::Matrix3d stress = 1e7 * (a + a.transpose());
+  const Eigen::Matrix3d spin = 0.5 * (w - w.transpose());
+  const Eigen::Vector3d before = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(stress).eigenvalues();
+  auto eigenvalue_change = [&](const Eigen::Matrix3d& s) {
+    const Eigen::Matrix3d symmetric = 0.5 * (s + s.transpose());
+    return (Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(symmetric).eigenvalues() - before).norm() /
+           before.norm();
+  };
+  const double large = 1.0 / spin.norm();
+  const Eigen::Matrix3d rotated = stress + large * objective_rotation_rate<3>(spin, stress, large);
+  EXPECT_LT(eigenvalue_change(rotated), 1e-13);
+  EXPECT_GT(eigenvalue_change(stress + large * (spin * stress - stress * spin)), 0.1);
+  const double small = 1e-6 * large;
+  const Eigen::Matrix3d jaumann = spin * stress - stress * spin;
+  EXPECT_LT((objective_rotation_rate<3>(spin, stress, small) - jaumann).norm(), 1e-5 * jaumann.norm());
 }
 
 // The hourglass stiffness (SolverSettings::hourglass_stiffness) exerts no force on a
@@ -244,7 +358,7 @@ TEST(HourglassStiffness, NoForceOnLinearDisplacement) {
 // checkerboard (-1)^(i+j) in u_x and the odd-even columns (-1)^i in u_y (the
 // cantilever's creeping mode). One step from rest: every particle's velocity change
 // opposes its displacement, and the total momentum stays zero to round-off.
-TEST(HourglassStiffness, RestoresInvisibleModesAndConservesMomentum) {
+void check_hourglass_restores(Kinematics kinematics) {
   const auto box = square(9);
   ParticleSet<2> real = make_real_lattice(box, kDensity);
   auto virtual_particles = make_virtual_lattice(box, kDensity);
@@ -257,6 +371,7 @@ TEST(HourglassStiffness, RestoresInvisibleModesAndConservesMomentum) {
   SolverSettings<2> settings;
   settings.smoothing_length = 0.6 * kDx;
   settings.hourglass_stiffness = 0.1;
+  settings.kinematics = kinematics;
   const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
   TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
                       {BoundaryCondition<2>::free("faces")});
@@ -267,6 +382,14 @@ TEST(HourglassStiffness, RestoresInvisibleModesAndConservesMomentum) {
     for (int d = 0; d < 2; ++d)
       EXPECT_LT(r.velocity[d][i] * r.displacement[d][i], 0.0) << "particle " << i << " component " << d;
   EXPECT_LT(solver.linear_momentum().norm(), 1e-12 * momentum_scale(r));
+}
+TEST(HourglassStiffness, RestoresInvisibleModesAndConservesMomentum) {
+  check_hourglass_restores(Kinematics::small_strain);
+}
+// ... also with moving particles (the stiffness reads both half-step lists after the
+// full step; until 2026-11-23 the updated-Lagrangian stepper had released one: a crash).
+TEST(HourglassStiffness, RestoresInvisibleModesWithUpdatedLagrangian) {
+  check_hourglass_restores(Kinematics::updated_lagrangian);
 }
 
 }  // namespace
