@@ -154,6 +154,9 @@ int run(const Options& o, bool check_only) {
     } catch (const CaseError& e) {
       print_errors(e);
       return cli::kExitBadInput;
+    } catch (const std::exception& e) {  // std::bad_alloc past --ignore-limits
+      fmt::print(stderr, "tsph: failed: {}\n", e.what());
+      return cli::kExitFailure;
     }
     fmt::print("case is valid\n");
     return cli::kExitOk;
