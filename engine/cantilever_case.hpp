@@ -10,6 +10,7 @@
 
 #include <functional>
 #include <memory>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -103,6 +104,18 @@ struct CantileverModel {
 template <int Dim>
 CantileverModel<Dim> make_cantilever(const CantileverSettings<Dim>& settings);
 
+/// The cantilever run diverged (SolutionDiverged's diagnosis in what()); `last_good`
+/// holds the last state recorded before it (every 0.02 s of simulated time, and the
+/// initial state), so that the tool can write it instead of nothing.
+class CantileverDiverged : public SolutionDiverged {
+ public:
+  CantileverDiverged(const std::string& message, CantileverResult state)
+      : SolutionDiverged(message), last_good(std::move(state)) {}
+  CantileverResult last_good;
+};
+
+/// Runs the case to rest (or to end_time). Throws std::invalid_argument for invalid
+/// settings and CantileverDiverged when the stepper detects a divergence.
 template <int Dim>
 CantileverResult run_cantilever(const CantileverSettings<Dim>& settings);
 

@@ -24,6 +24,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace tsph {
 
@@ -53,6 +54,41 @@ inline std::size_t available_memory_bytes() {
   while (meminfo >> key >> kib >> unit)
     if (key == "MemAvailable:") return kib * 1024;
   return 0;
+}
+
+/// The number in a one-line /sys file ("max" or a missing file: 0, unknown).
+inline std::size_t read_cgroup_bytes(const char* path) {
+  std::ifstream file(path);
+  std::string text;
+  if (!(file >> text) || text == "max") return 0;
+  try {
+    return static_cast<std::size_t>(std::stoull(text));
+  } catch (const std::exception&) {
+    return 0;
+  }
+}
+
+/// Memory a run may use: the smaller of MemAvailable and what the control group's limit
+/// leaves (cgroup v2 memory.max - memory.current, or v1 limit_in_bytes - usage_in_bytes);
+/// 0 if neither is known. Writes where the limit comes from to `source` if given.
+inline std::size_t memory_limit_bytes(std::string* source = nullptr) {
+  std::size_t limit = available_memory_bytes();
+  if (source) *source = "MemAvailable in /proc/meminfo";
+  const std::pair<const char*, const char*> groups[] = {
+      {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"},
+      {"/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes"}};
+  for (const auto& [max_path, current_path] : groups) {
+    const std::size_t max = read_cgroup_bytes(max_path);
+    if (max == 0 || max >= (std::size_t{1} << 60)) continue;  // no limit (v1 writes a huge number)
+    const std::size_t current = read_cgroup_bytes(current_path);
+    const std::size_t left = max > current ? max - current : 0;
+    if (limit == 0 || left < limit) {
+      limit = left;
+      if (source) *source = std::string("the control group's limit (") + max_path + ")";
+    }
+    break;
+  }
+  return limit;
 }
 
 /// Throws when `particles` x `bytes_per_particle` exceeds `limit_bytes` (a limit of 0

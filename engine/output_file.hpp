@@ -13,11 +13,13 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 
 #include <fcntl.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 namespace tsph {
@@ -27,14 +29,31 @@ class OutputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Bytes an unprivileged user may still write on the file system that holds `path`
+/// (statvfs f_bavail x f_frsize) or, if `path` does not exist yet, its nearest existing
+/// parent; nothing if unknown (or a file system without a size, like /proc).
+inline std::optional<std::size_t> available_disk_bytes(const std::filesystem::path& path) {
+  std::error_code ec;
+  std::filesystem::path p = std::filesystem::absolute(path, ec);
+  while (!p.empty() && !std::filesystem::exists(p, ec) && p != p.parent_path()) p = p.parent_path();
+  struct statvfs fs {};
+  if (::statvfs(p.c_str(), &fs) != 0 || fs.f_blocks == 0) return std::nullopt;  // /proc: no size
+  return static_cast<std::size_t>(fs.f_bavail) * static_cast<std::size_t>(fs.f_frsize);
+}
+
+/// The one message of a failed write: the file, the call that failed, the reason.
+[[noreturn]] inline void throw_output_error(const std::string& path, const char* what, int error) {
+  throw OutputError("cannot write '" + path + "' (" + what + ": " + std::strerror(error) +
+                    "); free space or choose a writable output directory; files written "
+                    "before are kept");
+}
+
 inline void write_file_atomically(const std::filesystem::path& path, std::string_view text) {
   const std::filesystem::path partial = path.string() + ".partial";
   auto fail = [&](const char* what, int error, int fd) {
     if (fd >= 0) ::close(fd);
     ::unlink(partial.c_str());
-    throw OutputError("cannot write '" + path.string() + "' (" + what + ": " +
-                      std::strerror(error) + "); free space or choose a writable output "
-                      "directory; files written before are kept");
+    throw_output_error(path.string(), what, error);
   };
   const int fd = ::open(partial.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) fail("open", errno, -1);

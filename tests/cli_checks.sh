@@ -79,12 +79,24 @@ if [ -n "$cantilever" ]; then
   expect_cantilever "young_modulus = -1 is invalid" --E -1
   expect_cantilever "plane: .*not in" --plane membrane
   expect_cantilever "cfl = 1.5 is invalid: must lie in \(0, 1\].*force" --cfl 1.5
-  # A forced unstable CFL: exit status 3 and the diagnosis, within a few steps.
+  expect_cantilever "alpha = 2.5 is invalid: must lie in \(0.5, 1.9\] for the cubic_spline kernel" --alpha 2.5
+  expect_cantilever "alpha = 2.5 is invalid: must lie in \(0.5, 2.4\] for the quintic_spline kernel" --alpha 2.5 \
+    --kernel quintic_spline --nx 21
+  # A forced unstable CFL: exit status 3 and the diagnosis, within a few steps; the
+  # last good state (here the initial one) is written, summary.json says so.
   checks=$((checks + 1))
+  rm -rf "$out/cantilever"
   text="$("$cantilever" --out "$out/cantilever" --quiet --nx 21 --cfl 1.5 --force 2>&1)"
   got=$?
   if [ "$got" -ne 3 ] || ! grep -qE "diverged at step [0-9]+ .*real particle [0-9]+ at \(.*, .*\).*likely cause: the time step: CFL" <<<"$text"; then
     echo "FAIL: tsph-cantilever --cfl 1.5 --force -> status $got (want 3), output: $text"
+    failures=$((failures + 1))
+  fi
+  checks=$((checks + 1))
+  if ! grep -q '"status": "diverged", "message": ".*diverged at step' "$out/cantilever/summary.json" 2>/dev/null ||
+     ! grep -q '"time": 0.000000' "$out/cantilever/summary.json" ||
+     [ "$(wc -l <"$out/cantilever/particles.csv")" -ne $((21 * 3 + 1)) ] || [ ! -s "$out/cantilever/axis.csv" ]; then
+    echo "FAIL: a diverged tsph-cantilever run should keep its last good state: $(ls "$out/cantilever"); $(cat "$out/cantilever/summary.json" 2>&1)"
     failures=$((failures + 1))
   fi
 fi

@@ -13,7 +13,7 @@ packages=(
   libcli11-dev              # command-line parsing
   libtomlplusplus-dev       # case files (TOML) for the tsph command
   python3-numpy python3-matplotlib  # tools/plot_*.py: figures against the exact solutions
-  clang-14 libclang-rt-14-dev  # sanitizer builds: ThreadSanitizer, libFuzzer (presets tsan, fuzz)
+  clang-14 libclang-rt-14-dev  # sanitizer builds: ASan/UBSan, TSan, libFuzzer (presets asan, tsan, fuzz)
   libomp-14-dev             # LLVM's OpenMP runtime and its Archer tool, which TSan understands
   valgrind                  # callgrind instruction counts: tools/check_timing.py (CI regression timing)
 )

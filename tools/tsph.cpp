@@ -1,15 +1,18 @@
 // tsph: runs a case file (TOML; key reference in tools/CASES.md).
 //
 //   tsph run CASE [--set key=value]... [--out DIR] [--overwrite] [--threads N] [--quiet]
-//            [--restart CHECKPOINT|DIR]
-//   tsph check CASE [--set key=value]...
+//            [--restart CHECKPOINT|DIR] [--ignore-limits]
+//   tsph check CASE [--set key=value]... [--ignore-limits]
 //   tsph --version
 //
-// Exit status: 0 success, 2 bad input (case file, overrides, output directory),
-// 3 the run diverged or did not come to rest, 1 other failure (including a run stopped
-// by SIGINT/SIGTERM, which still writes its last frame and summary.json).
+// Exit status: 0 success, 2 bad input (case file, overrides, output directory, a run
+// whose estimated memory or output size exceeds the machine's), 3 the run diverged or
+// did not come to rest, 1 other failure: an output file that cannot be written (disk
+// full, permission; the frames and checkpoint written before are kept) or a run
+// stopped by SIGINT/SIGTERM (which still writes its last frame and summary.json).
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
+#include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
 #include "tools/cli_common.hpp"
 
@@ -47,6 +50,7 @@ struct Options {
   std::string restart;
   int threads = -1;
   bool quiet = false;
+  bool ignore_limits = false;
 };
 
 void print_errors(const CaseError& e) {
@@ -123,12 +127,36 @@ int run(const Options& o, bool check_only) {
   }
   if (o.threads >= 0) c.threads = o.threads;
   set_thread_count(c.threads);
+  // Resources first: a case too large for this machine is refused before anything is
+  // built (the output directory is the one the run would use).
+  const std::string planned_out =
+      !o.out.empty() ? o.out
+      : !o.restart.empty() ? o.restart
+                           : (fs::path("out") / fs::path(c.path).stem()).string();
+  ResourceEstimate estimate;
+  try {
+    estimate = estimate_resources(c);
+    if (!o.ignore_limits) check_resources(c, estimate, machine_limits(planned_out), planned_out);
+  } catch (const CaseError& e) {
+    print_errors(e);
+    return cli::kExitBadInput;
+  }
   if (check_only) {
     try {
       print_overview(c, inspect_case(c));
+      const ResourceLimits limits = machine_limits(planned_out);
+      fmt::print("  estimate: peak memory {:.1f} MiB of {:.0f} MiB available; output {:.1f} MiB "
+                 "({} frames of {:.2f} MiB) of {} free under {}\n",
+                 estimate.memory_bytes / 1048576.0, limits.memory_bytes / 1048576.0,
+                 estimate.output_bytes / 1048576.0, estimate.frames, estimate.frame_bytes / 1048576.0,
+                 limits.disk_bytes ? fmt::format("{:.0f} MiB", *limits.disk_bytes / 1048576.0) : "?",
+                 planned_out);
     } catch (const CaseError& e) {
       print_errors(e);
       return cli::kExitBadInput;
+    } catch (const std::exception& e) {  // std::bad_alloc past --ignore-limits
+      fmt::print(stderr, "tsph: failed: {}\n", e.what());
+      return cli::kExitFailure;
     }
     fmt::print("case is valid\n");
     return cli::kExitOk;
@@ -213,6 +241,15 @@ int run(const Options& o, bool check_only) {
   } catch (const RunDiverged& e) {
     fmt::print(stderr, "tsph: diverged: {}\n", e.what());
     return cli::kExitNotConverged;
+  } catch (const OutputError& e) {
+    // Every file is written whole or not at all: what is on disk is the last good state.
+    std::string kept = "the frames listed in particles.pvd";
+    try {
+      kept += " and " + fs::path(resolve_checkpoint(resolved.out)).filename().string();
+    } catch (const CaseError&) {
+    }
+    fmt::print(stderr, "tsph: stopped: {}; {} in {} are intact\n", e.what(), kept, resolved.out);
+    return cli::kExitFailure;
   } catch (const std::exception& e) {
     fmt::print(stderr, "tsph: failed: {}\n", e.what());
     return cli::kExitFailure;
@@ -243,11 +280,16 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--overwrite", o.overwrite,
                     "reuse a non-empty output directory, replacing the files of a previous run");
   run_cmd->add_flag("--quiet", o.quiet, "print nothing but errors");
+  run_cmd->add_flag("--ignore-limits", o.ignore_limits,
+                    "run even if the estimated memory or output size exceeds what the machine "
+                    "offers (MemAvailable or the cgroup limit; free disk under --out)");
   run_cmd->add_option("--restart", o.restart,
                       "continue from a checkpoint file, or the newest checkpoint_*.bin of a directory "
                       "(output goes on in that directory unless --out is given)");
   CLI::App* check_cmd = app.add_subcommand("check", "validate a case and print it resolved, without running it");
   add_case_options(check_cmd);
+  check_cmd->add_flag("--ignore-limits", o.ignore_limits,
+                      "build the case even if it exceeds the machine's memory or disk");
   if (const auto stop = cli::parse(app, argc, argv)) return *stop;
   return run(o, check_cmd->parsed());
 }

@@ -7,8 +7,9 @@
 // position, displacement, stress) and summary.json (tip deflection against the exact
 // value, L2 error along the axis, steps, wall time, particle-steps per second).
 // Exit status: 0 success (converged), 2 bad input, 3 not converged or diverged (the
-// diagnosis on stderr; no output file is written from a diverged state), 1 other
-// failure (an output write).
+// diagnosis on stderr; the files then hold the last good state, recorded every 0.02 s
+// of simulated time, and summary.json says "status": "diverged"), 1 other failure (an
+// output write).
 #include "engine/cantilever_case.hpp"
 #include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
@@ -31,6 +32,17 @@ using namespace tsph;
 using cli::kExitBadInput;
 using cli::kExitNotConverged;
 
+/// The text of a JSON string (without the quotes).
+std::string json_escape(const std::string& text) {
+  std::string out;
+  for (char ch : text) {
+    if (ch == '"' || ch == '\\') out += '\\';
+    if (static_cast<unsigned char>(ch) < 0x20) out += ' ';
+    else out += ch;
+  }
+  return out;
+}
+
 struct Options {
   int dim = 2;
   std::string plane = "stress";
@@ -49,6 +61,44 @@ struct Options {
   bool quiet = false;
   bool force = false;
 };
+
+/// Writes axis.csv, particles.csv and summary.json of a result (each file whole or not
+/// at all: write_file_atomically).
+template <int Dim>
+void write_results(const Options& o, const CantileverSettings<Dim>& s, const CantileverResult& r,
+                   const std::string& status, const std::string& message) {
+  const double dx = s.spacing();
+  const std::filesystem::path out(o.out);
+  std::string axis = "x,uy,uy_exact\n";
+  for (std::size_t k = 0; k < r.axis_x.size(); ++k)
+    fmt::format_to(std::back_inserter(axis), "{:.17g},{:.17g},{:.17g}\n", r.axis_x[k],
+                   r.axis_uy[k], r.axis_exact[k]);
+  write_file_atomically(out / "axis.csv", axis);
+  std::string particles = "x0,y0,z0,ux,uy,uz,s0,s1,s2,s3,s4,s5\n";
+  for (std::size_t i = 0; i < r.initial_position.size(); ++i) {
+    const auto& x = r.initial_position[i];
+    const auto& u = r.displacement[i];
+    const auto& sg = r.stress[i];
+    fmt::format_to(std::back_inserter(particles), "{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n",
+                    x[0], x[1], x[2], u[0], u[1], u[2], sg[0], sg[1], sg[2], sg[3], sg[4], sg[5]);
+  }
+  write_file_atomically(out / "particles.csv", particles);
+  write_file_atomically(out / "summary.json", fmt::format(
+      "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
+      " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
+      " \"hourglass\": {}, \"hourglass_stiffness\": {}, \"clamp\": \"{}\", \"real_particles\": {}, \"virtual_particles\": {},\n"
+      " \"status\": \"{}\", \"message\": \"{}\",\n"
+      " \"converged\": {}, \"time\": {:.6f}, \"steps\": {}, \"dt\": {:.6e},\n"
+      " \"tip_deflection\": {:.9e}, \"tip_exact\": {:.9e}, \"tip_error_percent\": {:.6f},\n"
+      " \"axis_l2_error_percent\": {:.6f}, \"wall_seconds\": {:.3f},\n"
+      " \"particle_steps_per_second\": {:.6e}, \"threads\": {},\n"
+      " \"gradient_fallbacks\": {}, \"interpolation_fallbacks\": {}}}\n",
+      Dim, Dim == 2 ? o.plane : "none", s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1, dx,
+      s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, s.hourglass_stiffness, o.clamp, r.real_particles, r.virtual_particles,
+      status, message, r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
+      r.tip_error_percent, r.axis_l2_error_percent, r.wall_seconds, r.particle_steps_per_second,
+      thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks));
+}
 
 template <int Dim>
 int run(const Options& o) {
@@ -103,39 +153,15 @@ int run(const Options& o) {
       std::fflush(stdout);
     };
   }
-  const CantileverResult r = run_cantilever(s);
-
-  const std::filesystem::path out(o.out);
-  {
-    std::string axis = "x,uy,uy_exact\n";
-    for (std::size_t k = 0; k < r.axis_x.size(); ++k)
-      fmt::format_to(std::back_inserter(axis), "{:.17g},{:.17g},{:.17g}\n", r.axis_x[k],
-                     r.axis_uy[k], r.axis_exact[k]);
-    write_file_atomically(out / "axis.csv", axis);
-    std::string particles = "x0,y0,z0,ux,uy,uz,s0,s1,s2,s3,s4,s5\n";
-    for (std::size_t i = 0; i < r.initial_position.size(); ++i) {
-      const auto& x = r.initial_position[i];
-      const auto& u = r.displacement[i];
-      const auto& sg = r.stress[i];
-      fmt::format_to(std::back_inserter(particles), "{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n",
-                      x[0], x[1], x[2], u[0], u[1], u[2], sg[0], sg[1], sg[2], sg[3], sg[4], sg[5]);
-    }
-    write_file_atomically(out / "particles.csv", particles);
-    write_file_atomically(out / "summary.json", fmt::format(
-        "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
-        " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
-        " \"hourglass\": {}, \"hourglass_stiffness\": {}, \"clamp\": \"{}\", \"real_particles\": {}, \"virtual_particles\": {},\n"
-        " \"converged\": {}, \"time\": {:.6f}, \"steps\": {}, \"dt\": {:.6e},\n"
-        " \"tip_deflection\": {:.9e}, \"tip_exact\": {:.9e}, \"tip_error_percent\": {:.6f},\n"
-        " \"axis_l2_error_percent\": {:.6f}, \"wall_seconds\": {:.3f},\n"
-        " \"particle_steps_per_second\": {:.6e}, \"threads\": {},\n"
-        " \"gradient_fallbacks\": {}, \"interpolation_fallbacks\": {}}}\n",
-        Dim, Dim == 2 ? o.plane : "none", s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1, dx,
-        s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, s.hourglass_stiffness, o.clamp, r.real_particles, r.virtual_particles,
-        r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
-        r.tip_error_percent, r.axis_l2_error_percent, r.wall_seconds, r.particle_steps_per_second,
-        thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks));
+  CantileverResult r;
+  try {
+    r = run_cantilever(s);
+  } catch (const CantileverDiverged& e) {
+    // Keep the last good state (issue 6), as tsph keeps its last frame.
+    write_results<Dim>(o, s, e.last_good, "diverged", json_escape(e.what()));
+    throw;
   }
+  write_results<Dim>(o, s, r, r.converged ? "converged" : "not_converged", "");
   if (!o.quiet) {
     fmt::print("{} after {} steps (t = {:.3f} s), {:.1f} s wall, {:.3e} particle-steps/s\n",
                r.converged ? "converged" : "NOT converged", r.steps, r.time, r.wall_seconds,

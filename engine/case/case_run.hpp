@@ -9,6 +9,7 @@
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -62,6 +63,35 @@ struct RunReport {
   std::string last_checkpoint;  ///< empty if none was written
   std::vector<ErrorRecord> errors;
 };
+
+/// What a run will need, estimated from the case alone (before any particle is built),
+/// so that a run that cannot fit is refused up front (issue 6, resource limits).
+struct ResourceEstimate {
+  double real_particles = 0.0;     ///< from the geometry (a union of boxes: their sum)
+  double virtual_particles = 0.0;
+  double steps = 0.0, frames = 0.0;
+  double memory_bytes = 0.0;       ///< peak: solver (memory_estimate.hpp) + output buffers
+  double frame_bytes = 0.0;        ///< one VTU frame (real, and virtual if written)
+  double checkpoint_bytes = 0.0;   ///< one checkpoint file
+  double output_bytes = 0.0;       ///< everything the run writes, at its largest
+};
+
+/// What this machine offers; 0 (memory) or nothing (disk) when unknown.
+struct ResourceLimits {
+  double memory_bytes = 0.0;
+  std::string memory_source;  ///< where the memory limit comes from
+  std::optional<double> disk_bytes;
+};
+
+ResourceEstimate estimate_resources(const CaseFile& c);
+
+/// MemAvailable or the control group's limit; free space under `out_dir` (statvfs).
+ResourceLimits machine_limits(const std::string& out_dir);
+
+/// Throws CaseError naming the estimate, the limit and the way out when the run needs
+/// more memory or disk than `limits` offer (`--ignore-limits` skips this check).
+void check_resources(const CaseFile& c, const ResourceEstimate& e, const ResourceLimits& limits,
+                     const std::string& out_dir);
 
 /// Builds the case without stepping it. Throws CaseError (bad geometry, a region that
 /// selects nothing, a malformed particle file).

@@ -1,5 +1,7 @@
 #include "engine/output/vtu_writer.hpp"
 
+#include "engine/output_file.hpp"
+
 #include <chrono>
 #include <cerrno>
 #include <cstdio>
@@ -22,38 +24,39 @@ bool little_endian() {
 }
 
 /// A file written under `path.tmp`, flushed to disk and renamed onto `path` on commit.
+/// Every failure (open, write, flush, fsync, close, rename: a full disk, a read-only or
+/// vanished directory) throws OutputError naming `path` and the reason, removes the
+/// temporary file and leaves `path` as it was.
 class AtomicFile {
  public:
   explicit AtomicFile(std::string path) : path_(std::move(path)), temporary_(path_ + ".tmp") {
     file_ = std::fopen(temporary_.c_str(), "wb");
-    if (!file_) throw std::runtime_error("cannot write '" + temporary_ + "': " + std::strerror(errno));
+    if (!file_) throw_output_error(path_, "open", errno);
   }
   ~AtomicFile() {
-    if (file_) {
-      std::fclose(file_);
-      std::remove(temporary_.c_str());
-    }
+    if (file_) std::fclose(file_);
+    if (!committed_) std::remove(temporary_.c_str());
   }
   void write(const void* data, std::size_t bytes) {
-    if (bytes > 0 && std::fwrite(data, 1, bytes, file_) != bytes)
-      throw std::runtime_error("cannot write '" + temporary_ + "': " + std::strerror(errno));
+    if (bytes > 0 && std::fwrite(data, 1, bytes, file_) != bytes) throw_output_error(path_, "write", errno);
   }
   void write(const std::string& text) { write(text.data(), text.size()); }
   /// `durable`: fsync before the rename (checkpoints); frames only need the rename,
   /// which already keeps readers from seeing half a file.
   void commit(bool durable) {
-    if (std::fflush(file_) != 0 || (durable && ::fsync(::fileno(file_)) != 0))
-      throw std::runtime_error("cannot write '" + temporary_ + "': " + std::strerror(errno));
-    std::fclose(file_);
+    if (std::fflush(file_) != 0) throw_output_error(path_, "write", errno);
+    if (durable && ::fsync(::fileno(file_)) != 0 && errno != EINVAL) throw_output_error(path_, "fsync", errno);
+    const int closed = std::fclose(file_);
     file_ = nullptr;
-    std::error_code ec;
-    std::filesystem::rename(temporary_, path_, ec);
-    if (ec) throw std::runtime_error("cannot rename '" + temporary_ + "' to '" + path_ + "': " + ec.message());
+    if (closed != 0) throw_output_error(path_, "close", errno);
+    if (std::rename(temporary_.c_str(), path_.c_str()) != 0) throw_output_error(path_, "rename", errno);
+    committed_ = true;
   }
 
  private:
   std::string path_, temporary_;
   std::FILE* file_ = nullptr;
+  bool committed_ = false;
 };
 
 std::string xml_escape(const std::string& s) {

@@ -31,7 +31,7 @@ struct VtuFrame {
   std::vector<VtuArray> arrays;
 };
 
-/// Writes the frame to `path` (via `path.tmp` and a rename). Throws std::runtime_error
+/// Writes the frame to `path` (via `path.tmp` and a rename). Throws OutputError (output_file.hpp)
 /// naming the file if it cannot be written.
 void write_vtu(const std::string& path, const VtuFrame& frame);
 
