@@ -314,8 +314,9 @@ TEST_F(CaseFileTest, BarCaseFileReproducesRunBar) {
 // particles, conditions, parabolic tip shear, ramp, damping and hourglass filter, over
 // the first 233 steps (the last step of the case lands on time.end, so the time
 // differs by round-off: equal to 1e-9, not bitwise).
-// With method.velocity_wall = "wall_gradient" and method.hourglass_stiffness = 0.05 the
-// case file runs tsph-cantilever's --clamp wall-gradient --hourglass-stiffness 0.05.
+// With method.velocity_wall = "wall_gradient", method.hourglass_stiffness = 0.05 and
+// method.surface_extrapolation = true the case file runs tsph-cantilever's --clamp
+// wall-gradient --hourglass-stiffness 0.05 --surface-extrapolation.
 class CantileverCaseFile : public CaseFileTest, public ::testing::WithParamInterface<bool> {};
 
 TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
@@ -325,6 +326,7 @@ TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
   if (wall_gradient) {
     s.clamp = SolverSettings<2>::VelocityWall::wall_gradient;
     s.hourglass_stiffness = 0.05;
+    s.surface_extrapolation = true;
   }
   const double dt = s.cfl * s.spacing() /
                     LinearElastic<2>(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode).p_wave_speed(s.density);
@@ -337,6 +339,7 @@ TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
   if (wall_gradient) {
     overrides.emplace_back("method.velocity_wall=wall_gradient");
     overrides.emplace_back("method.hourglass_stiffness=0.05");
+    overrides.emplace_back("method.surface_extrapolation=true");
   }
   const CaseFile c = load_case((kCases / "cantilever_2d.toml").string(), overrides);
   RunOptions options;

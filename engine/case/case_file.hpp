@@ -85,6 +85,7 @@ struct CaseFile {
   double hourglass = 0.0;
   double hourglass_stiffness = 0.0;  ///< SolverSettings::hourglass_stiffness
   bool wall_gradient = false;        ///< velocity_wall = "wall_gradient" (else characteristics)
+  bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
   std::vector<double> body_force;
 
   // [time]
