@@ -42,6 +42,7 @@ struct CantileverSettings {
   double hourglass_stiffness = 0.0;  ///< kappa of the hourglass stiffness (SolverSettings)
   /// Stress update of the clamped particles (SolverSettings::velocity_wall).
   typename SolverSettings<Dim>::VelocityWall clamp = SolverSettings<Dim>::VelocityWall::characteristics;
+  bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
   double end_time = 3.0;       ///< give up after this simulated time (s)
   double tolerance = 1e-5;     ///< converged when |tip velocity| < tolerance * tip_exact / T1
   std::function<void(double time, double tip, double kinetic)> progress;  ///< optional

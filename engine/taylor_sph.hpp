@@ -119,6 +119,16 @@ struct SolverSettings {
   /// so that every virtual particle's forces sum to zero: linear momentum is conserved
   /// to round-off without external loads, and free surfaces are natural (zero traction).
   bool conservative_momentum = false;
+  /// Free- and traction-surface particles take their tangential velocity gradient from
+  /// the virtual half-step velocities, whose stencil (one row, alpha 0.6) lies a distance
+  /// delta = n . (x_I - x_centroid) inside: the gradient of the row, not of the surface
+  /// (the cantilever's outer fibres are then softer by delta / (D / 2)). With this option
+  /// the tangential block is extrapolated to the surface to first order,
+  ///   d_k v_l (surface) = d_k v_l (row) + delta d_n d_k v_l,  d_n d_k v_l = -d_k d_l v_n,
+  /// the last from the traction-free rate d_n v_l + d_l v_n = 0 (sigma_nl = 0 along the
+  /// surface); d_k d_l v_n is the tangential difference of the neighbouring surface
+  /// particles' half-step gradients d_k v_n (README, The cantilever). Off by default.
+  bool surface_extrapolation = false;
 };
 
 /// What the run did; fallbacks are counted per stencil evaluation.
@@ -270,6 +280,7 @@ class TaylorSph {
     boundary_half_velocity_gradient_.assign(nb, Mat::Zero());
     boundary_half_velocity_.assign(nb, Vec::Zero());
     boundary_gradient_sum_.assign(nb, Vec::Zero());
+    boundary_stencil_offset_.assign(nb, Vec::Zero());
     for (auto& v : previous_velocity_) v.resize(real_.size());
     filtered_velocity_.assign(nb, Vec::Zero());
     double virtual_volume = 0.0;  // dx of the CFL in a diagnosis (check_stability)
@@ -625,8 +636,14 @@ class TaylorSph {
             boundary_half_velocity_gradient_[static_cast<std::size_t>(b)] = s.velocity_gradient;
             boundary_half_velocity_[static_cast<std::size_t>(b)] = s.velocity;
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
-            for (std::size_t k = 0; k < nb.size(); ++k) gradient_sum += w.gradient[k];
+            Vec centroid = Vec::Zero();  // of the virtual stencil (surface_extrapolation)
+            for (std::size_t k = 0; k < nb.size(); ++k) {
+              gradient_sum += w.gradient[k];
+              centroid += virtual_.position_of(nb[k]);
+            }
             boundary_gradient_sum_[static_cast<std::size_t>(b)] = gradient_sum;
+            boundary_stencil_offset_[static_cast<std::size_t>(b)] =
+                target.position_of(r) - centroid / static_cast<double>(nb.size());
             boundary_half_stress_gradient_[static_cast<std::size_t>(b)] =
                 stress_gradient(source, nb, w, s.stress);
           }
@@ -715,6 +732,7 @@ class TaylorSph {
         velocity_dt.col(k) = frame.transpose() * (boundary_half_velocity_gradient_[b] * t);
         stress_dt[k] = frame.transpose() * directional(boundary_half_stress_gradient_[b], t) * frame;
       }
+      if (settings_.surface_extrapolation) extrapolate_to_surface(b, i, frame, t_new, velocity_dt);
       // Effective body force, with the damping, at time n.
       const Vec force = frame.transpose() * (settings_.body_force - settings_.damping * boundary_velocity_[b]);
 
@@ -804,6 +822,56 @@ class TaylorSph {
                                   ? 0.0
                                   : boundary_stress_[b][zz] + dt * lame * volumetric;
       }
+    }
+  }
+
+  /// SolverSettings::surface_extrapolation: velocity_dt(l, k) = d v'_l / d t_k, l, k
+  /// tangential, moved from the virtual stencil's centroid to the particle,
+  ///   += -delta H_kl,  H_kl = d_k d_l v_n  (least squares over the neighbouring surface
+  /// particles with the same normal: sum_j (g_j - g_i)_k dx_m = H_km sum_j dx_k dx_m,
+  /// g = tangential gradient of v_n at n+1/2). No neighbour: no correction.
+  void extrapolate_to_surface(std::size_t b, std::uint32_t i, const Mat& frame, double t_new,
+                              Mat& velocity_dt) const {
+    const Vec& n = boundary_normal_[b];
+    const double delta = n.dot(boundary_stencil_offset_[b]);
+    if (!(delta > 0.0)) return;
+    // Zero traction at I and at every neighbour used (a loaded face, where
+    // d_t sigma_nl need not vanish, is left as it is).
+    auto unloaded = [&](std::size_t slot, std::uint32_t particle) {
+      const auto& c = boundaries_[static_cast<std::size_t>(real_.boundary[particle])];
+      return c.kind == BoundaryCondition<Dim>::Kind::traction &&
+             c.prescribed(initial_position_of(particle), boundary_profile_[slot], t_new).squaredNorm() == 0.0;
+    };
+    if (!unloaded(b, i)) return;
+    auto g_of = [&](std::size_t slot) {  // grad_t v_n at n+1/2, in the frame
+      return Vec(frame.transpose() * (boundary_half_velocity_gradient_[slot].transpose() * n));
+    };
+    const Vec gi = g_of(b);
+    Mat moments = Mat::Zero(), differences = Mat::Zero();
+    for (std::uint32_t j : real_from_real_.neighbors(i)) {
+      const std::int32_t bj = boundary_slot_[j];
+      if (bj < 0 || !boundary_on_surface_[static_cast<std::size_t>(bj)] ||
+          boundary_normal_[static_cast<std::size_t>(bj)].dot(n) < 0.999)
+        continue;
+      if (!unloaded(static_cast<std::size_t>(bj), j)) continue;
+      const Vec gj = g_of(static_cast<std::size_t>(bj));
+      const Vec dx = frame.transpose() * (real_.position_of(j) - real_.position_of(i));
+      for (int k = 1; k < Dim; ++k)
+        for (int m = 1; m < Dim; ++m) {
+          differences(k, m) += (gj[k] - gi[k]) * dx[m];
+          moments(k, m) += dx[k] * dx[m];
+        }
+    }
+    if constexpr (Dim == 2) {
+      if (moments(1, 1) > 0.0) {
+        velocity_dt(1, 1) -= delta * differences(1, 1) / moments(1, 1);
+      }
+    } else if constexpr (Dim == 3) {
+      const Eigen::Matrix2d a = moments.template block<2, 2>(1, 1);
+      if (std::abs(a.determinant()) <= 1e-12 * a.squaredNorm()) return;  // an edge: skip
+      const Eigen::Matrix2d hessian = differences.template block<2, 2>(1, 1) * a.inverse();
+      const Eigen::Matrix2d symmetric = 0.5 * (hessian + hessian.transpose());
+      velocity_dt.template block<2, 2>(1, 1) -= delta * symmetric;
     }
   }
 
@@ -1258,6 +1326,7 @@ class TaylorSph {
   std::vector<StressGradient> boundary_half_stress_gradient_;  ///< grad sigma^{n+1/2} (virtual)
   std::vector<Mat> boundary_half_velocity_gradient_;           ///< grad v^{n+1/2} (virtual)
   std::vector<Vec> boundary_half_velocity_;   ///< v^{n+1/2} interpolated at the particle
+  std::vector<Vec> boundary_stencil_offset_;  ///< x_I - centroid of its virtual stencil
   std::vector<Vec> boundary_gradient_sum_;    ///< sum_J V_J Gn_IJ over its virtual stencil
   std::array<std::vector<double>, Dim> previous_velocity_;  ///< v^n of the real particles
   std::vector<Vec> filtered_velocity_;  ///< hourglass filter scratch, per boundary slot

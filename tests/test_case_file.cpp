@@ -174,6 +174,11 @@ TEST_F(CaseFileTest, WrongTypeOutOfRangeAndMissingKeys) {
   EXPECT_NE(e.find("keep one of them"), std::string::npos) << e;
   e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nkinematics = 3"));
   EXPECT_NE(e.find("method.kinematics = 3 is invalid: must be one of (in quotes): small_strain"), std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nvelocity_wall = \"wall\""));
+  EXPECT_NE(e.find("method.velocity_wall = 'wall' is invalid: must be one of: characteristics, wall_gradient"),
+            std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nhourglass_stiffness = -0.1"));
+  EXPECT_NE(e.find("method.hourglass_stiffness = -0.1 is invalid: must lie in [0, 1]"), std::string::npos) << e;
 }
 
 // A box list is the union of its boxes on one lattice: two halves give the particles
@@ -309,9 +314,20 @@ TEST_F(CaseFileTest, BarCaseFileReproducesRunBar) {
 // particles, conditions, parabolic tip shear, ramp, damping and hourglass filter, over
 // the first 233 steps (the last step of the case lands on time.end, so the time
 // differs by round-off: equal to 1e-9, not bitwise).
-TEST_F(CaseFileTest, CantileverCaseFileReproducesRunCantilever) {
+// With method.velocity_wall = "wall_gradient", method.hourglass_stiffness = 0.05 and
+// method.surface_extrapolation = true the case file runs tsph-cantilever's --clamp
+// wall-gradient --hourglass-stiffness 0.05 --surface-extrapolation.
+class CantileverCaseFile : public CaseFileTest, public ::testing::WithParamInterface<bool> {};
+
+TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
+  const bool wall_gradient = GetParam();
   set_thread_count(1);
   CantileverSettings<2> s;  // seed 4.2 defaults: 101 x 11, plane stress, P = 1000 N
+  if (wall_gradient) {
+    s.clamp = SolverSettings<2>::VelocityWall::wall_gradient;
+    s.hourglass_stiffness = 0.05;
+    s.surface_extrapolation = true;
+  }
   const double dt = s.cfl * s.spacing() /
                     LinearElastic<2>(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode).p_wave_speed(s.density);
   s.end_time = 232.5 * dt;  // run_cantilever steps while t < end: 233 steps
@@ -319,7 +335,13 @@ TEST_F(CaseFileTest, CantileverCaseFileReproducesRunCantilever) {
   ASSERT_EQ(reference.steps, 233);
   char end[64];
   std::snprintf(end, sizeof end, "time.end=%.17g", 233 * dt);
-  const CaseFile c = load_case((kCases / "cantilever_2d.toml").string(), {end, "damping.rest_velocity=0"});
+  std::vector<std::string> overrides{end, "damping.rest_velocity=0"};
+  if (wall_gradient) {
+    overrides.emplace_back("method.velocity_wall=wall_gradient");
+    overrides.emplace_back("method.hourglass_stiffness=0.05");
+    overrides.emplace_back("method.surface_extrapolation=true");
+  }
+  const CaseFile c = load_case((kCases / "cantilever_2d.toml").string(), overrides);
   RunOptions options;
   options.out_dir = directory_.string();
   options.quiet = true;
@@ -331,6 +353,8 @@ TEST_F(CaseFileTest, CantileverCaseFileReproducesRunCantilever) {
   ASSERT_GT(std::abs(reference.tip_deflection), 1e-9);  // the load has moved the tip
   EXPECT_NEAR(tip, reference.tip_deflection, 1e-9 * std::abs(reference.tip_deflection));
 }
+INSTANTIATE_TEST_SUITE_P(Clamp, CantileverCaseFile, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& clamp) { return clamp.param ? "WallGradient" : "Characteristics"; });
 
 // The named initial profile: a free-free bar started in its fundamental mode,
 // v = A cos(pi x / L) (sine with wavelength 2L, phase pi/2), is back to its initial

@@ -55,6 +55,7 @@ struct Options {
   double alpha = 0.6, cfl = 0.9, damping = -1.0, ramp = -1.0, hourglass = 0.02;
   double hourglass_stiffness = 0.0;
   std::string clamp = "characteristics";
+  bool surface_extrapolation = false;
   double end_time = 3.0, tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -127,6 +128,7 @@ int run(const Options& o) {
   s.hourglass_stiffness = o.hourglass_stiffness;
   s.clamp = o.clamp == "wall-gradient" ? SolverSettings<Dim>::VelocityWall::wall_gradient
                                        : SolverSettings<Dim>::VelocityWall::characteristics;
+  s.surface_extrapolation = o.surface_extrapolation;
   s.end_time = o.end_time;
   s.tolerance = o.tolerance;
   if (const auto errors = validate(s); !errors.empty()) {
@@ -209,6 +211,9 @@ int main(int argc, char** argv) {
                  "stress of the clamped particles: characteristics | wall-gradient (bulk update "
                  "with the half-step velocity gradient taken relative to the wall velocity)")
       ->capture_default_str()->check(CLI::IsMember({"characteristics", "wall-gradient"}));
+  app.add_flag("--surface-extrapolation", o.surface_extrapolation,
+               "free-surface tangential velocity gradient extrapolated from the virtual row to the surface "
+               "(SolverSettings::surface_extrapolation)");
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance, "rest criterion (relative tip velocity)")
       ->capture_default_str();

@@ -536,6 +536,12 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
                        : Kinematics::small_strain;
     c.hourglass = m.real("hourglass", false, "0.02", [](double e) { return e >= 0.0 && e < 1.0; },
                          "must lie in [0, 1)").value_or(0.0);
+    c.hourglass_stiffness =
+        m.real("hourglass_stiffness", false, "0.05", [](double k) { return k >= 0.0 && k <= 1.0; },
+               "must lie in [0, 1]").value_or(0.0);
+    c.wall_gradient = m.text("velocity_wall", false, {"characteristics", "wall_gradient"})
+                          .value_or("characteristics") == "wall_gradient";
+    c.surface_extrapolation = m.boolean("surface_extrapolation").value_or(false);
     c.body_force = m.numbers("body_force", false, dim, "m/s^2, one per axis")
                        .value_or(std::vector<double>(dim, 0.0));
     m.finish();

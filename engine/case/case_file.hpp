@@ -83,6 +83,9 @@ struct CaseFile {
   InterpolationKind interpolation = InterpolationKind::linear;
   Kinematics kinematics = Kinematics::small_strain;
   double hourglass = 0.0;
+  double hourglass_stiffness = 0.0;  ///< SolverSettings::hourglass_stiffness
+  bool wall_gradient = false;        ///< velocity_wall = "wall_gradient" (else characteristics)
+  bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
   std::vector<double> body_force;
 
   // [time]

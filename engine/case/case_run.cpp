@@ -245,6 +245,10 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.body_force = to_vector<Dim>(c.body_force);
   b.settings.damping = c.damping;
   b.settings.hourglass_coefficient = c.hourglass;
+  b.settings.hourglass_stiffness = c.hourglass_stiffness;
+  b.settings.velocity_wall = c.wall_gradient ? SolverSettings<Dim>::VelocityWall::wall_gradient
+                                             : SolverSettings<Dim>::VelocityWall::characteristics;
+  b.settings.surface_extrapolation = c.surface_extrapolation;
   b.material.emplace(c.young_modulus, c.poisson_ratio, c.density,
                      Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
   b.wave_speed = b.material->p_wave_speed(c.density);
@@ -550,7 +554,8 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       "  \"resolved\": {{\"dimension\": {}, \"real_particles\": {}, \"virtual_particles\": {}, "
       "\"spacing\": {}, \"smoothing_length\": {}, \"alpha\": {}, \"kernel\": {}, \"interpolation\": {}, "
       "\"kinematics\": {}, \"E\": {}, \"nu\": {}, \"rho\": {}, \"plane\": {}, \"p_wave_speed\": {}, "
-      "\"dt\": {}, \"cfl\": {}, \"end_time\": {}, \"damping\": {}, \"hourglass\": {}, \"threads\": {}}},\n"
+      "\"dt\": {}, \"cfl\": {}, \"end_time\": {}, \"damping\": {}, \"hourglass\": {}, "
+      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"threads\": {}}},\n"
       "  \"time\": {},\n  \"steps\": {},\n  \"wall_seconds\": {},\n  \"particle_steps_per_second\": {},\n"
       "  \"output_frames\": {},\n  \"output_writer_seconds\": {},\n  \"output_wait_seconds\": {},\n"
       "  \"errors\": [{}\n  ]\n}}\n",
@@ -563,7 +568,10 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       json_number(c.young_modulus), json_number(c.poisson_ratio), json_number(c.density),
       json_string(Dim == 2 ? (c.plane_mode == PlaneMode::plane_strain ? "strain" : "stress") : "none"),
       json_number(b.wave_speed), json_number(b.dt), json_number(b.dt * b.wave_speed / c.spacing),
-      json_number(c.end_time), json_number(c.damping), json_number(c.hourglass), thread_count(),
+      json_number(c.end_time), json_number(c.damping), json_number(c.hourglass),
+      json_number(c.hourglass_stiffness), json_string(c.wall_gradient ? "wall_gradient" : "characteristics"),
+      c.surface_extrapolation ? "true" : "false",
+      thread_count(),
       json_number(r.time), r.steps, json_number(r.wall_seconds), json_number(r.particle_steps_per_second),
       r.frames, json_number(r.output_busy_seconds), json_number(r.output_wait_seconds), errors);
   output::write_text_file((out / "summary.json").string(), text);
