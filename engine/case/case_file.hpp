@@ -85,6 +85,10 @@ struct CaseFile {
   double hourglass = 0.0;
   std::vector<double> body_force;
 
+  // [solver]
+  NeighborSearch neighbor_search = NeighborSearch::automatic;
+  bool transpose_lists = false;
+
   // [time]
   double end_time = 0.0;
   double cfl = 0.0;  ///< dt = cfl dx / c_p, or

@@ -243,6 +243,8 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.body_force = to_vector<Dim>(c.body_force);
   b.settings.damping = c.damping;
   b.settings.hourglass_coefficient = c.hourglass;
+  b.settings.neighbor_search = c.neighbor_search;
+  b.settings.transpose_lists = c.transpose_lists;
   b.material.emplace(c.young_modulus, c.poisson_ratio, c.density,
                      Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
   b.wave_speed = b.material->p_wave_speed(c.density);
