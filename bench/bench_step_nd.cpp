@@ -4,7 +4,9 @@
 //           conditions, move, neighbour rebuild (cell list) and normals;
 //   Half    seed eq. (3) alone (real -> virtual), lists kept (small strain);
 //   Full    seed eq. (4) alone (virtual -> real), lists kept (small strain);
-//   Rebuild all three neighbour lists and the boundary normals alone.
+//   Rebuild all three neighbour lists and the boundary normals alone;
+//   StepTransposed  the whole step with SolverSettings::transpose_lists (the full
+//           step's list transposed from the half step's instead of searched).
 // Arguments: particles, threads.
 #include "bench/block_case.hpp"
 #include "engine/parallel.hpp"
@@ -33,7 +35,7 @@ constexpr double kAlpha = 1.2;
 
 enum class Stage { step, half, full, rebuild };
 
-template <int Dim, Stage stage>
+template <int Dim, Stage stage, bool transposed = false>
 void BM_Stage(benchmark::State& state) {
   const int before = thread_count();
   set_thread_count(static_cast<int>(state.range(1)));
@@ -41,7 +43,9 @@ void BM_Stage(benchmark::State& state) {
   // the whole step runs updated Lagrangian (every step rebuilds them).
   auto solver = bench::make_block<Dim>(
       state.range(0), kAlpha,
-      stage == Stage::step ? Kinematics::updated_lagrangian : Kinematics::small_strain);
+      stage == Stage::step ? Kinematics::updated_lagrangian : Kinematics::small_strain,
+      [](ParticleSet<Dim>&, double) {},
+      [](SolverSettings<Dim>& settings) { settings.transpose_lists = transposed; });
   const double dt = bench::block_time_step(solver, kAlpha);
   for (auto _ : state) {
     if constexpr (stage == Stage::step) solver.step(dt);
@@ -76,7 +80,9 @@ BENCHMARK(BM_Stage<2, Stage::step>)->Name("Step2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::half>)->Name("Half2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::full>)->Name("Full2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::rebuild>)->Name("Rebuild2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, true>)->Name("StepTransposed2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<3, Stage::step>)->Name("Step3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::step, true>)->Name("StepTransposed3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::half>)->Name("Half3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::full>)->Name("Full3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::rebuild>)->Name("Rebuild3D")->Apply(sizes_3d);

@@ -28,11 +28,14 @@ LatticeBox<Dim> block_box(std::int64_t particles) {
   return box;
 }
 
-/// `reorder(set, support radius)` may permute each set before the solver is built.
-template <int Dim, class Reorder = void (*)(ParticleSet<Dim>&, double)>
+/// `reorder(set, support radius)` may permute each set before the solver is built;
+/// `configure(settings)` may change the solver settings.
+template <int Dim, class Reorder = void (*)(ParticleSet<Dim>&, double),
+          class Configure = void (*)(SolverSettings<Dim>&)>
 TaylorSph<Dim> make_block(std::int64_t particles, double alpha,
                           Kinematics kinematics = Kinematics::updated_lagrangian,
-                          Reorder reorder = [](ParticleSet<Dim>&, double) {}) {
+                          Reorder reorder = [](ParticleSet<Dim>&, double) {},
+                          Configure configure = [](SolverSettings<Dim>&) {}) {
   const LatticeBox<Dim> box = block_box<Dim>(particles);
   ParticleSet<Dim> real = make_real_lattice(box, kBlockDensity);
   ParticleSet<Dim> virtual_particles = make_virtual_lattice(box, kBlockDensity);
@@ -51,6 +54,7 @@ TaylorSph<Dim> make_block(std::int64_t particles, double alpha,
   reorder(real, kSupportFactor * settings.smoothing_length);
   reorder(virtual_particles, kSupportFactor * settings.smoothing_length);
   settings.kinematics = kinematics;
+  configure(settings);
   return TaylorSph<Dim>(std::move(real), std::move(virtual_particles),
                         LinearElastic<Dim>(kBlockYoung, 0.3, kBlockDensity), settings,
                         {BoundaryCondition<Dim>::fixed("clamp"), BoundaryCondition<Dim>::free("end")});

@@ -3,7 +3,9 @@
 // workload (tools/check_timing.py, under callgrind).
 //
 //   tsph-block-run --dim 2 --particles 10000000 --steps 3 [--threads 2] [--alpha 1.2]
-//                  [--small-strain] [--order none|shuffled|cells]
+//                  [--small-strain] [--order none|shuffled|cells|morton]
+//                  [--search auto|cell_list|kd_tree] [--transpose]
+//                  [--solver-order none|cells|morton]
 #include "bench/block_case.hpp"
 #include "engine/memory_estimate.hpp"
 #include "engine/parallel.hpp"
@@ -30,15 +32,21 @@ struct Options {
   double alpha = 1.2;
   Kinematics kinematics = Kinematics::updated_lagrangian;
   /// none: lattice order (axis 0 fastest); shuffled: a random order (what locality is
-  /// worth); cells: shuffled, then sorted by neighbour-search cell (neighbor/spatial_order.hpp).
+  /// worth); cells / morton: shuffled, then sorted by cell, row by row or along the Z
+  /// curve (neighbor/spatial_order.hpp).
   std::string order = "none";
+  NeighborSearch search = NeighborSearch::automatic;
+  bool transpose_lists = false;  ///< SolverSettings::transpose_lists
+  /// SolverSettings::spatial_order: the solver sorts the sets when their order decays.
+  SpatialOrder solver_order = SpatialOrder::none;
 };
 
 [[noreturn]] void usage_error(const std::string& message) {
   std::fprintf(stderr, "tsph-block-run: error: %s\n", message.c_str());
   std::fprintf(stderr,
                "usage: tsph-block-run [--dim 2|3] [--particles N] [--steps K] [--threads T] "
-               "[--alpha A] [--small-strain] [--order none|shuffled|cells]\n");
+               "[--alpha A] [--small-strain] [--order none|shuffled|cells|morton] "
+               "[--search auto|cell_list|kd_tree] [--transpose] [--solver-order none|cells|morton]\n");
   std::exit(2);
 }
 
@@ -54,7 +62,7 @@ int run(const Options& o) {
   const auto box = bench::block_box<Dim>(o.particles);
   const auto real_count = static_cast<std::size_t>(box.total_nodes());
   try {
-    check_memory_budget(estimate_bytes_per_real_particle<Dim>(o.alpha), real_count,
+    check_memory_budget(estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists), real_count,
                         available_memory_bytes());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tsph-block-run: error: %s\n", e.what());
@@ -70,8 +78,14 @@ int run(const Options& o) {
     // Cells of a quarter of the support radius (0.6 dx at alpha 1.2): at most one
     // lattice particle per cell, so a lattice gets back its row order.
     if (o.order == "cells") set.permute(cell_order<Dim>(points_of<Dim>(set), 0.25 * radius));
+    if (o.order == "morton") set.permute(morton_order<Dim>(points_of<Dim>(set), 0.25 * radius));
   };
-  auto solver = bench::make_block<Dim>(o.particles, o.alpha, o.kinematics, reorder);
+  auto configure = [&o](SolverSettings<Dim>& settings) {
+    settings.neighbor_search = o.search;
+    settings.transpose_lists = o.transpose_lists;
+    settings.spatial_order = o.solver_order;
+  };
+  auto solver = bench::make_block<Dim>(o.particles, o.alpha, o.kinematics, reorder, configure);
   const auto built = std::chrono::steady_clock::now();
   const double dt = bench::block_time_step(solver, o.alpha);
   run_steps(solver, dt, o.steps);
@@ -79,15 +93,16 @@ int run(const Options& o) {
   const double setup_s = std::chrono::duration<double>(built - start).count();
   const double steps_s = std::chrono::duration<double>(end - built).count();
   std::printf("dim %d, real %zu, virtual %zu, pairs virtual<-real %zu, "
-              "threads %d\n",
+              "threads %d, search %s, reorders %lld\n",
               Dim, solver.real().size(), solver.virtual_particles().size(),
               solver.virtual_from_real().pair_count(),
-              thread_count());
+              thread_count(), std::string(to_string(solver.neighbor_search_used())).c_str(),
+              static_cast<long long>(solver.counters().reorders));
   std::printf("setup %.3f s, %d steps %.3f s, %.3f M real-particle-steps/s, estimate %.0f B "
               "per real particle, kinetic energy %.9e\n",
               setup_s, o.steps, steps_s,
               o.steps > 0 ? 1e-6 * static_cast<double>(real_count) * o.steps / steps_s : 0.0,
-              estimate_bytes_per_real_particle<Dim>(o.alpha), solver.kinetic_energy());
+              estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists), solver.kinetic_energy());
   return 0;
 }
 
@@ -100,8 +115,26 @@ int main(int argc, char** argv) {
     if (key == "--order") {
       if (a + 1 >= argc) usage_error("option --order needs a value");
       o.order = argv[++a];
-      if (o.order != "none" && o.order != "shuffled" && o.order != "cells")
-        usage_error("order = '" + o.order + "' is invalid: must be one of: none, shuffled, cells");
+      if (o.order != "none" && o.order != "shuffled" && o.order != "cells" && o.order != "morton")
+        usage_error("order = '" + o.order + "' is invalid: must be one of: none, shuffled, cells, morton");
+      continue;
+    }
+    if (key == "--search" || key == "--solver-order") {
+      if (a + 1 >= argc) usage_error("option " + key + " needs a value");
+      const std::string value = argv[++a];
+      if (key == "--search") {
+        const auto search = parse_neighbor_search(value);
+        if (!search) usage_error("search = '" + value + "' is invalid: must be one of: auto, cell_list, kd_tree");
+        o.search = *search;
+      } else {
+        if (value != "none" && value != "cells" && value != "morton")
+          usage_error("solver-order = '" + value + "' is invalid: must be one of: none, cells, morton");
+        o.solver_order = value == "none" ? SpatialOrder::none : value == "cells" ? SpatialOrder::cells : SpatialOrder::morton;
+      }
+      continue;
+    }
+    if (key == "--transpose") {
+      o.transpose_lists = true;
       continue;
     }
     if (key == "--small-strain") {

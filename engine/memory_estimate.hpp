@@ -12,7 +12,10 @@
 //     ball in lattice cells, an upper bound of the measured count);
 //   * the boundary list's offsets (8 B per real particle; boundary rows are few);
 //   * the cell list being queried: sorted indices, their cells while binning, and
-//     the coordinates in cell order (8 + 8 Dim B).
+//     the coordinates in cell order (8 + 8 Dim B);
+//   * with SolverSettings::transpose_lists, both half-step lists at once while the
+//     full step's is transposed from the half step's (instead of the cell list and one
+//     list).
 #pragma once
 
 #include "engine/particle_set.hpp"
@@ -29,7 +32,7 @@
 namespace tsph {
 
 template <int Dim>
-double estimate_bytes_per_real_particle(double alpha) {
+double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false) {
   if (!(alpha > 0.0) || !std::isfinite(alpha))
     throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
                                 " must be positive");
@@ -42,7 +45,8 @@ double estimate_bytes_per_real_particle(double alpha) {
   const double previous_velocity = 8.0 * Dim;
   const double boundary_offsets = 8.0;
   const double cell_list = 8.0 + 8.0 * Dim;
-  return 2.0 * set + previous_velocity + list + boundary_offsets + cell_list;
+  const double lists = transposed_lists ? 2.0 * list : list + cell_list;
+  return 2.0 * set + previous_velocity + lists + boundary_offsets;
 }
 
 /// Memory this process may use: MemAvailable of /proc/meminfo (0 if unknown).

@@ -44,6 +44,23 @@ Counts parallel_for_with_scratch(std::size_t n, Body&& body) {
 }
 
 /// Number of threads a parallel region would use.
+inline int thread_count();
+
+/// Splits [0, n) into one contiguous block per thread (block b: [n b / B, n (b + 1) / B))
+/// and runs body(b, begin, end) for each block in parallel; returns B. For reductions
+/// kept per block and combined in block order afterwards (deterministic).
+template <class Body>
+std::size_t parallel_blocks(std::size_t n, Body&& body) {
+  int threads = 1;
+#ifdef _OPENMP
+  threads = omp_get_max_threads();
+#endif
+  const std::size_t blocks = static_cast<std::size_t>(threads > 0 ? threads : 1);
+  parallel_for(blocks, [&](std::size_t b) { body(b, n * b / blocks, n * (b + 1) / blocks); });
+  return blocks;
+}
+
+/// Number of threads a parallel region would use.
 inline int thread_count() {
 #ifdef _OPENMP
   return omp_get_max_threads();

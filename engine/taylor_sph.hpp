@@ -53,6 +53,8 @@
 #include "kernels/corrected_operators.hpp"
 #include "kernels/smoothing_kernels.hpp"
 #include "neighbor/cell_list.hpp"
+#include "neighbor/neighbor_search.hpp"
+#include "neighbor/spatial_order.hpp"
 
 #include <algorithm>
 #include <array>
@@ -129,6 +131,27 @@ struct SolverSettings {
   /// surface); d_k d_l v_n is the tangential difference of the neighbouring surface
   /// particles' half-step gradients d_k v_n (README, The cantilever). Off by default.
   bool surface_extrapolation = false;
+  /// Neighbour search of the half-step and boundary lists: the cell list, the kd-tree,
+  /// or `automatic`, which picks per rebuild by the rule of neighbor/neighbor_search.hpp
+  /// (the kd-tree only for sets spread thinly over a large box). Same lists either way.
+  NeighborSearch neighbor_search = NeighborSearch::automatic;
+  /// The real -> virtual list of the full step is the transpose of the virtual -> real
+  /// list of the half step (same radius: the same pairs) instead of a second search:
+  /// 11 % (2D) and 14 % (3D) fewer instructions per updated-Lagrangian step, but both
+  /// lists are then held at once, +65 B per real particle in 2D (461 B, over the 400 B
+  /// target; bench/RESULTS.md, memory_estimate.hpp). Off by default for that reason.
+  bool transpose_lists = false;
+  /// Locality: both particle sets are sorted into this order (cells of a quarter of the
+  /// support radius, row by row or along the Z curve) when their order has decayed:
+  /// when the mean index spread of the rows of the virtual -> real list (last - first
+  /// real index of a row) exceeds `reorder_threshold` times that of the sorted order.
+  /// Checked at construction (a set in random order is sorted; a lattice built by the
+  /// cases is already in order and is kept) and at each updated-Lagrangian rebuild.
+  /// Sorting renumbers the particles (ids are kept, counted in SolverCounters::reorders):
+  /// callers that hold particle indices across steps must look them up again after a
+  /// reorder. `none` (the default): never sorted.
+  SpatialOrder spatial_order = SpatialOrder::none;
+  double reorder_threshold = 2.0;  ///< > 1
 };
 
 /// What the run did; fallbacks are counted per stencil evaluation.
@@ -138,6 +161,7 @@ struct SolverCounters {
   std::int64_t empty_stencils = 0;
   std::int64_t interpolation_fallbacks = 0;
   std::int64_t gradient_fallbacks = 0;
+  std::int64_t reorders = 0;  ///< sorts of the particle sets (SolverSettings::spatial_order)
 };
 
 /// Index of stress component sigma_ij in the per-particle stress arrays.
@@ -250,6 +274,9 @@ class TaylorSph {
       throw std::invalid_argument("solver: hourglass stiffness = " +
                                   std::to_string(settings_.hourglass_stiffness) +
                                   " must lie in [0, 1]");
+    if (!(settings_.reorder_threshold > 1.0) || !std::isfinite(settings_.reorder_threshold))
+      throw std::invalid_argument("solver: reorder threshold = " +
+                                  std::to_string(settings_.reorder_threshold) + " must be > 1");
     if (real_.size() == 0 || virtual_.size() == 0)
       throw std::invalid_argument("solver: needs at least one real and one virtual particle");
     boundary_slot_.assign(real_.size(), -1);
@@ -299,6 +326,8 @@ class TaylorSph {
   const SolverSettings<Dim>& settings() const { return settings_; }
   const SolverCounters& counters() const { return counters_; }
   const NeighborList& virtual_from_real() const { return virtual_from_real_; }
+  /// The search of the last rebuild (cell_list or kd_tree; `automatic` resolved).
+  NeighborSearch neighbor_search_used() const { return neighbor_search_used_; }
   /// In updated-Lagrangian runs this list is built in the full step and released by the
   /// rebuild at the end of the step (see lists_used_once()): empty between steps.
   const NeighborList& real_from_virtual() const { return real_from_virtual_; }
@@ -609,9 +638,15 @@ class TaylorSph {
     const double h = settings_.smoothing_length;
     const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
     if (lists_used_once()) {  // the half step's list is done with: one list at a time
-      virtual_from_real_ = NeighborList{};
       real_from_virtual_ = NeighborList{};
-      real_from_virtual_ = CellList<Dim>(source_points, support_radius()).query(points_of<Dim>(real_));
+      if (settings_.transpose_lists) {
+        real_from_virtual_ = transpose(virtual_from_real_, real_.size());
+        virtual_from_real_ = NeighborList{};
+      } else {
+        virtual_from_real_ = NeighborList{};
+        real_from_virtual_ = NeighborSearcher<Dim>(settings_.neighbor_search, source_points, support_radius())
+                                 .query(points_of<Dim>(real_));
+      }
     }
     add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
         target.count, [&](std::size_t r, StencilWeights<Dim>& w, StencilCounts& counts) {
@@ -1211,9 +1246,91 @@ class TaylorSph {
     return settings_.kinematics == Kinematics::updated_lagrangian && settings_.hourglass_stiffness == 0.0;
   }
 
+  /// Neighbour lists (build_lists), and the particle sets sorted when their order has
+  /// decayed (SolverSettings::spatial_order), the lists then built again.
+  void rebuild_neighbors() {
+    build_lists();
+    if (settings_.spatial_order == SpatialOrder::none) return;
+    const double spread = mean_row_spread(virtual_from_real_, nullptr);
+    if (sorted_spread_ < 0.0) {
+      // First build: the spread the sorted order would have, from the ranks of the
+      // sorted order applied to the current list.
+      const std::vector<std::uint32_t> order = order_of(real_);
+      std::vector<std::uint32_t> rank(order.size());
+      for (std::size_t k = 0; k < order.size(); ++k) rank[order[k]] = static_cast<std::uint32_t>(k);
+      sorted_spread_ = mean_row_spread(virtual_from_real_, rank.data());
+    }
+    if (!(spread > settings_.reorder_threshold * std::max(sorted_spread_, 1.0))) return;
+    sort_particles();
+    build_lists();
+    sorted_spread_ = mean_row_spread(virtual_from_real_, nullptr);
+  }
+
+  /// Mean over the rows of `list` of the spread (last - first) of their entries, or of
+  /// their ranks rank[j] if given: how far apart in memory one stencil's sources lie.
+  static double mean_row_spread(const NeighborList& list, const std::uint32_t* rank) {
+    std::uint64_t total = 0;  // an integer sum: exact, whatever the order
+    std::size_t rows = 0;
+    for (std::size_t i = 0; i < list.query_count(); ++i) {
+      const auto row = list.neighbors(i);
+      if (row.empty()) continue;
+      ++rows;
+      if (!rank) {
+        total += row.back() - row.front();  // rows are sorted
+        continue;
+      }
+      std::uint32_t low = UINT32_MAX, high = 0;
+      for (std::uint32_t j : row) low = std::min(low, rank[j]), high = std::max(high, rank[j]);
+      total += high - low;
+    }
+    return rows > 0 ? static_cast<double>(total) / static_cast<double>(rows) : 0.0;
+  }
+
+  std::vector<std::uint32_t> order_of(const ParticleSet<Dim>& set) const {
+    return spatial_order<Dim>(settings_.spatial_order, points_of<Dim>(set), 0.25 * support_radius());
+  }
+
+  /// Sorts both sets (ParticleSet::permute) and renumbers what refers to real indices:
+  /// the boundary slots (kept in increasing real index) and their persistent state.
+  void sort_particles() {
+    const std::vector<std::uint32_t> real_order = order_of(real_);
+    real_.permute(real_order);
+    virtual_.permute(order_of(virtual_));
+    for (auto& v : previous_velocity_) {
+      std::vector<double> reordered(v.size());
+      for (std::size_t k = 0; k < real_order.size(); ++k) reordered[k] = v[real_order[k]];
+      v.swap(reordered);
+    }
+    std::vector<std::uint32_t> new_index(real_order.size());
+    for (std::size_t k = 0; k < real_order.size(); ++k) new_index[real_order[k]] = static_cast<std::uint32_t>(k);
+    // Slots in increasing new index: slot_order[s] = the old slot of new slot s.
+    std::vector<std::size_t> slot_order(boundary_particles_.size());
+    for (std::size_t b = 0; b < slot_order.size(); ++b) slot_order[b] = b;
+    std::sort(slot_order.begin(), slot_order.end(), [&](std::size_t a, std::size_t b) {
+      return new_index[boundary_particles_[a]] < new_index[boundary_particles_[b]];
+    });
+    auto permute_slots = [&slot_order](auto& per_slot) {
+      if (per_slot.size() != slot_order.size()) return;  // not yet assigned
+      auto reordered = per_slot;
+      for (std::size_t s = 0; s < slot_order.size(); ++s) reordered[s] = per_slot[slot_order[s]];
+      per_slot.swap(reordered);
+    };
+    permute_slots(boundary_profile_);
+    permute_slots(boundary_on_surface_);
+    permute_slots(boundary_normal_);
+    std::vector<std::uint32_t> particles(boundary_particles_.size());
+    for (std::size_t s = 0; s < slot_order.size(); ++s) particles[s] = new_index[boundary_particles_[slot_order[s]]];
+    boundary_particles_.swap(particles);
+    boundary_slot_.assign(real_.size(), -1);
+    for (std::size_t s = 0; s < boundary_particles_.size(); ++s)
+      boundary_slot_[boundary_particles_[s]] = static_cast<std::int32_t>(s);
+    hourglass_list_build_ = -1;  // its lists are by index: built again when used
+    ++counters_.reorders;
+  }
+
   /// Neighbour lists of both half-steps and of the real set, and the boundary normals
   /// n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body).
-  void rebuild_neighbors() {
+  void build_lists() {
     const double radius = support_radius();
     const PointsView<Dim> real_points = points_of<Dim>(real_);
     const PointsView<Dim> virtual_points = points_of<Dim>(virtual_);
@@ -1222,14 +1339,18 @@ class TaylorSph {
     real_from_virtual_ = NeighborList{};
     real_from_real_ = NeighborList{};
     {
-      const CellList<Dim> real_cells(real_points, radius);
-      virtual_from_real_ = real_cells.query(virtual_points);
+      const NeighborSearcher<Dim> real_search(settings_.neighbor_search, real_points, radius);
+      neighbor_search_used_ = real_search.kind();
+      virtual_from_real_ = real_search.query(virtual_points);
       // Same-set rows only where they are used: the boundary particles (rows of the other
       // real particles are empty, so the list is still indexed by real particle).
-      real_from_real_ = real_cells.query_subset(real_points, boundary_particles_, true);
+      real_from_real_ = real_search.query_subset(real_points, boundary_particles_, true);
     }
     if (!lists_used_once())
-      real_from_virtual_ = CellList<Dim>(virtual_points, radius).query(real_points);
+      real_from_virtual_ =
+          settings_.transpose_lists
+              ? transpose(virtual_from_real_, real_.size())
+              : NeighborSearcher<Dim>(settings_.neighbor_search, virtual_points, radius).query(real_points);
     visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) {
       const bool first_build = counters_.neighbor_builds == 0;
       if (first_build) boundary_on_surface_.assign(boundary_particles_.size(), 1);
@@ -1309,6 +1430,8 @@ class TaylorSph {
   double initial_spacing_ = 0.0;        ///< (mean initial virtual volume)^(1/Dim)
   std::int64_t energized_steps_ = 0;    ///< steps with a positive largest energy
 
+  NeighborSearch neighbor_search_used_ = NeighborSearch::cell_list;  ///< at the last rebuild
+  double sorted_spread_ = -1.0;  ///< mean_row_spread of the sorted order (-1: not known yet)
   NeighborList virtual_from_real_;  ///< rows: virtual particles; entries: real
   NeighborList real_from_virtual_;  ///< rows: real particles; entries: virtual
   NeighborList real_from_real_;     ///< rows: real particles (only boundary ones filled); entries: real, self excluded

@@ -36,7 +36,7 @@ class CellList {
 
   /// All source points within `radius` of each query point, rows sorted.
   NeighborList query(const PointsView<Dim>& points) const {
-    validate_search_input(points, source_, radius_);
+    validate_finite_points(points, "query");  // the source was checked when indexed
     return query_rows(points, points.count, [](std::size_t i) { return i; }, false);
   }
 
@@ -46,7 +46,7 @@ class CellList {
   /// is indexed like the full list.
   NeighborList query_subset(const PointsView<Dim>& points, std::span<const std::uint32_t> rows,
                             bool exclude_self) const {
-    validate_search_input(points, source_, radius_);
+    validate_finite_points(points, "query");  // the source was checked when indexed
     for (std::uint32_t i : rows)
       if (i >= points.count)
         throw std::invalid_argument("neighbour search: row " + std::to_string(i) + " of " +
@@ -92,14 +92,30 @@ class CellList {
   }
 
   void build() {
+    // Bounding box: one block of points per thread, combined afterwards (min and max
+    // are exact, so the result does not depend on the blocks).
+    const std::size_t max_blocks = static_cast<std::size_t>(std::max(1, thread_count()));
+    std::vector<Eigen::Matrix<double, Dim, 1>> block_lower(max_blocks), block_upper(max_blocks);
+    const std::size_t blocks = parallel_blocks(source_.count, [&](std::size_t b, std::size_t begin,
+                                                                  std::size_t end) {
+      Eigen::Matrix<double, Dim, 1> low, high;
+      low.setConstant(std::numeric_limits<double>::infinity());
+      high.setConstant(-std::numeric_limits<double>::infinity());
+      for (std::size_t i = begin; i < end; ++i)
+        for (int d = 0; d < Dim; ++d) {
+          low[d] = std::min(low[d], source_.coordinate[d][i]);
+          high[d] = std::max(high[d], source_.coordinate[d][i]);
+        }
+      block_lower[b] = low;
+      block_upper[b] = high;
+    });
     lower_.setConstant(std::numeric_limits<double>::infinity());
     Eigen::Matrix<double, Dim, 1> upper;
     upper.setConstant(-std::numeric_limits<double>::infinity());
-    for (std::size_t i = 0; i < source_.count; ++i)
-      for (int d = 0; d < Dim; ++d) {
-        lower_[d] = std::min(lower_[d], source_.coordinate[d][i]);
-        upper[d] = std::max(upper[d], source_.coordinate[d][i]);
-      }
+    for (std::size_t b = 0; b < blocks; ++b) {
+      lower_ = lower_.cwiseMin(block_lower[b]);
+      upper = upper.cwiseMax(block_upper[b]);
+    }
     if (source_.count == 0) {
       lower_.setZero();
       upper.setZero();
@@ -128,23 +144,40 @@ class CellList {
           static_cast<std::int64_t>(std::floor((upper[d] - lower_[d]) / cell_size_)) + 1;
       total_cells_ *= cells_per_axis_[d];
     }
-    // Counting sort of the source points by cell; keeps increasing index order
-    // within each cell. The cell of each point is found in parallel.
-    cell_start_.assign(static_cast<std::size_t>(total_cells_) + 1, 0);
+    // Counting sort of the source points by cell; keeps increasing index order within
+    // each cell. In parallel without per-thread histograms: each thread owns a range of
+    // cells, and counts, then places, only the points of its range, reading the points
+    // in index order (so the order within a cell is the index order, whatever the
+    // thread count).
+    const auto cells = static_cast<std::size_t>(total_cells_);
+    cell_start_.assign(cells + 1, 0);
     std::vector<std::uint32_t> cell_of(source_.count);
     parallel_for(source_.count, [&](std::size_t j) {
       cell_of[j] = static_cast<std::uint32_t>(linear_cell(cell_coordinates(source_.point(j))));
     });
-    for (std::size_t j = 0; j < source_.count; ++j) ++cell_start_[std::size_t{cell_of[j]} + 1];
-    for (std::size_t c = 0; c < static_cast<std::size_t>(total_cells_); ++c)
-      cell_start_[c + 1] += cell_start_[c];
+    std::uint32_t* start = cell_start_.data();
+    const std::uint32_t* cell = cell_of.data();
+    const std::size_t count = source_.count;
+    parallel_blocks(cells, [&](std::size_t, std::size_t first, std::size_t last) {
+      const auto low = static_cast<std::uint32_t>(first), span = static_cast<std::uint32_t>(last - first);
+      for (std::size_t j = 0; j < count; ++j)
+        if (cell[j] - low < span) ++start[std::size_t{cell[j]} + 1];  // (unsigned) in range
+    });
+    for (std::size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
     sorted_source_.resize(source_.count);
     {
-      std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
-      for (std::size_t j = 0; j < source_.count; ++j)
-        sorted_source_[fill[cell_of[j]]++] = static_cast<std::uint32_t>(j);
+      // start[c] is the fill cursor of cell c (it ends at cell c + 1's start); shifted
+      // back afterwards.
+      std::uint32_t* sorted = sorted_source_.data();
+      parallel_blocks(cells, [&](std::size_t, std::size_t first, std::size_t last) {
+        const auto low = static_cast<std::uint32_t>(first), span = static_cast<std::uint32_t>(last - first);
+        for (std::size_t j = 0; j < count; ++j)
+          if (cell[j] - low < span) sorted[start[cell[j]]++] = static_cast<std::uint32_t>(j);
+      });
+      for (std::size_t c = cells; c > 0; --c) cell_start_[c] = cell_start_[c - 1];
+      cell_start_[0] = 0;
     }
-    // Coordinates in cell order: the candidates of a row of 3 cells are contiguous.
+    // Coordinates in cell order: the candidates of a row of cells are contiguous.
     for (int d = 0; d < Dim; ++d) sorted_coordinate_[d].resize(source_.count);
     parallel_for(source_.count, [&](std::size_t k) {
       for (int d = 0; d < Dim; ++d)

@@ -108,6 +108,23 @@ TEST_F(CaseFileTest, ShippedCasesResolveToTheSeedSettings) {
   EXPECT_EQ(c.boundary_particles[0].second, 198u); // top and bottom, less the four corners
 }
 
+// [solver]: neighbor_search "auto" by default, the two searches by name, anything else
+// refused with the key, the value and the choices; transpose_lists off by default.
+TEST_F(CaseFileTest, SolverKeysAreReadAndValidated) {
+  EXPECT_EQ(load_case(write("default.toml", kValid2d)).neighbor_search, NeighborSearch::automatic);
+  for (const char* name : {"auto", "cell_list", "kd_tree"}) {
+    const CaseFile c = load_case(write("search.toml", kValid2d + "[solver]\nneighbor_search = \"" + name + "\"\n"));
+    EXPECT_EQ(c.neighbor_search, parse_neighbor_search(name));
+    EXPECT_EQ(to_string(c.neighbor_search), name);
+  }
+  EXPECT_FALSE(load_case(write("default.toml", kValid2d)).transpose_lists);
+  EXPECT_TRUE(load_case(write("t.toml", kValid2d + "[solver]\ntranspose_lists = true\n")).transpose_lists);
+  const std::string bad = error_of(kValid2d + "[solver]\nneighbor_search = \"octree\"\n");
+  EXPECT_NE(bad.find("solver.neighbor_search = 'octree' is invalid: must be one of: auto, cell_list, kd_tree"),
+            std::string::npos)
+      << bad;
+}
+
 TEST_F(CaseFileTest, OverridesReplaceScalarsAndAreValidated) {
   const std::string path = (kCases / "cantilever_2d.toml").string();
   const CaseFile c = load_case(path, {"material.E=2e8", "material.plane=strain", "method.kernel=\"wendland_c2\""});

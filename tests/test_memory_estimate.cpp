@@ -23,6 +23,8 @@ TEST(MemoryEstimate, CountsSetsListsAndCellList) {
   EXPECT_NEAR(estimate_bytes_per_real_particle<3>(1.2), 360.0 + 24.0 + 239.6 + 8.0 + 32.0, 0.2);
   // More neighbours, more memory.
   EXPECT_GT(estimate_bytes_per_real_particle<3>(1.6), estimate_bytes_per_real_particle<3>(1.2));
+  // Transposed lists: two lists (8 B offsets + 4 B per pair each) instead of one and the cell list.
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, true), 264.0 + 16.0 + 2.0 * 80.38 + 8.0, 0.2);
   for (double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()})
     EXPECT_THROW(estimate_bytes_per_real_particle<2>(bad), std::invalid_argument);
 }

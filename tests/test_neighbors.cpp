@@ -7,6 +7,7 @@
 #include "neighbor/brute_force.hpp"
 #include "neighbor/cell_list.hpp"
 #include "neighbor/kd_tree.hpp"
+#include "neighbor/neighbor_search.hpp"
 #include "neighbor/spatial_order.hpp"
 
 #include <gtest/gtest.h>
@@ -89,10 +90,24 @@ NeighborList expect_cell_list_matches_brute_force(const PointsView<Dim>& query,
   EXPECT_TRUE(queried == reference) << "radius " << radius;
   const NeighborList tree = kd_tree_neighbors<Dim>(query, source, radius);
   EXPECT_TRUE(tree == reference) << "kd-tree, radius " << radius;
+  // The kd-tree in 1 to 5 slabs (trees built concurrently): the same list.
+  for (std::size_t slabs : {1, 2, 3, 5}) {
+    const KdTree<Dim> sliced(source, radius, slabs);
+    EXPECT_EQ(sliced.slab_count(), std::min(slabs, source.count)) << slabs << " slabs";
+    EXPECT_TRUE(sliced.query(query) == reference) << "kd-tree, " << slabs << " slabs, radius " << radius;
+  }
   // Rows for every third query point only: those equal the reference, the rest are empty.
   std::vector<std::uint32_t> rows;
   for (std::size_t i = 0; i < query.count; i += 3) rows.push_back(static_cast<std::uint32_t>(i));
   const NeighborList subset = cells.query_subset(query, rows, false);
+  EXPECT_TRUE(KdTree<Dim>(source, radius, 3).query_subset(query, rows, false) == subset)
+      << "kd-tree subset, radius " << radius;
+  for (NeighborSearch kind : {NeighborSearch::cell_list, NeighborSearch::kd_tree}) {
+    const NeighborSearcher<Dim> searcher(kind, source, radius);
+    EXPECT_EQ(searcher.kind(), kind);
+    EXPECT_TRUE(searcher.query(query) == reference) << to_string(kind);
+    EXPECT_TRUE(searcher.query_subset(query, rows, false) == subset) << to_string(kind);
+  }
   EXPECT_EQ(subset.query_count(), query.count);
   for (std::size_t i = 0; i < query.count; ++i) {
     const auto row = subset.neighbors(i);
@@ -425,6 +440,41 @@ TYPED_TEST(NeighborTest, SubsetOfSameSetExcludesSelf) {
   EXPECT_GT(filled, 0u);
   const std::vector<std::uint32_t> bad = {300};
   EXPECT_THROW(cells.query_subset(points.view(), bad, true), std::invalid_argument);
+  const KdTree<dim> tree(points.view(), radius, 2);
+  EXPECT_TRUE(tree.query_subset(points.view(), rows, true) == subset);
+  EXPECT_THROW(tree.query_subset(points.view(), bad, true), std::invalid_argument);
+}
+
+// "auto": the cell list for a lattice, the kd-tree for a few small clusters far apart
+// in a large box (more than kKdTreeCellsPerPoint cells of radius / 2 per point); both
+// give the brute-force list.
+TYPED_TEST(NeighborTest, AutomaticChoiceFollowsTheCellsPerPoint) {
+  constexpr int dim = TypeParam::value;
+  LatticeBox<dim> box;
+  for (int d = 0; d < dim; ++d) box.node_count[d] = 6;
+  box.spacing = 1.0;
+  const ParticleSet<dim> lattice = make_real_lattice(box, 1.0);
+  const double radius = 2.4;
+  EXPECT_LT(cells_per_point<dim>(points_of<dim>(lattice), radius), 1.0);
+  EXPECT_EQ((NeighborSearcher<dim>(NeighborSearch::automatic, points_of<dim>(lattice), radius).kind()),
+            NeighborSearch::cell_list);
+  // Two copies of the lattice, 1e4 spacings apart along every axis.
+  Points<dim> clusters;
+  for (double shift : {0.0, 1e4})
+    for (std::size_t i = 0; i < lattice.size(); ++i) {
+      Eigen::Matrix<double, dim, 1> x = lattice.position_of(i);
+      x.array() += shift;
+      clusters.add(x);
+    }
+  EXPECT_GT(cells_per_point<dim>(clusters.view(), radius), kKdTreeCellsPerPoint);
+  const NeighborSearcher<dim> chosen(NeighborSearch::automatic, clusters.view(), radius);
+  EXPECT_EQ(chosen.kind(), NeighborSearch::kd_tree);
+  EXPECT_TRUE(chosen.query(clusters.view()) ==
+              brute_force_neighbors<dim>(clusters.view(), clusters.view(), radius));
+  EXPECT_EQ(parse_neighbor_search("auto"), NeighborSearch::automatic);
+  EXPECT_EQ(parse_neighbor_search("kd_tree"), NeighborSearch::kd_tree);
+  EXPECT_EQ(parse_neighbor_search("cell_list"), NeighborSearch::cell_list);
+  EXPECT_FALSE(parse_neighbor_search("octree").has_value());
 }
 
 // Cell order: a permutation (every index once) that sorts by cell, axis 0 fastest; on a
@@ -460,6 +510,58 @@ TYPED_TEST(NeighborTest, CellOrderRestoresAShuffledLattice) {
   const PointsView<dim> none{};
   EXPECT_TRUE(cell_order<dim>(none, 1.0).empty());
   EXPECT_THROW(cell_order<dim>(points_of<dim>(set), 0.0), std::invalid_argument);
+}
+
+// The transpose of a query -> source list is the source -> query list of a search (same
+// radius), with 1 and 2 threads; an index beyond the source count is refused.
+TYPED_TEST(NeighborTest, TransposeEqualsTheSearchTheOtherWay) {
+  constexpr int dim = TypeParam::value;
+  const auto source = random_points<dim>(400, 0.0, 1.0, 51);
+  const auto query = random_points<dim>(250, -0.1, 1.1, 52);
+  const double radius = dim == 1 ? 0.02 : dim == 2 ? 0.12 : 0.25;
+  const NeighborList forward = brute_force_neighbors<dim>(query.view(), source.view(), radius);
+  const NeighborList backward = brute_force_neighbors<dim>(source.view(), query.view(), radius);
+  ASSERT_GT(forward.pair_count(), 2 * query.size());
+  const int before = thread_count();
+  for (int threads : {1, 2}) {
+    set_thread_count(threads);
+    const NeighborList transposed = transpose(forward, source.size());
+    EXPECT_TRUE(transposed == backward) << threads << " threads";
+    EXPECT_TRUE(transpose(transposed, query.size()) == forward) << threads << " threads";
+  }
+  set_thread_count(before);
+  EXPECT_TRUE(transpose(NeighborList{}, 3) == (NeighborList{{0, 0, 0, 0}, {}}));
+  EXPECT_THROW(transpose(forward, 10), std::invalid_argument);
+}
+
+// Morton order: a permutation sorted by the interleaved bits of the cell coordinates;
+// on a 4 x 4 (x 4) lattice with one node per cell it is the Z curve.
+TYPED_TEST(NeighborTest, MortonOrderFollowsTheZCurve) {
+  constexpr int dim = TypeParam::value;
+  LatticeBox<dim> box;
+  for (int d = 0; d < dim; ++d) box.node_count[d] = 4;
+  box.spacing = 1.0;
+  ParticleSet<dim> set = make_real_lattice(box, 1.0);
+  std::vector<std::uint32_t> shuffle(set.size());
+  for (std::size_t i = 0; i < shuffle.size(); ++i) shuffle[i] = static_cast<std::uint32_t>(i);
+  std::shuffle(shuffle.begin(), shuffle.end(), std::mt19937_64(5));
+  set.permute(shuffle);
+  const std::vector<std::uint32_t> order = morton_order<dim>(points_of<dim>(set), 0.5);
+  ASSERT_EQ(order.size(), set.size());
+  set.permute(order);
+  for (std::size_t k = 0; k < set.size(); ++k) {
+    // Position k on the Z curve: de-interleave k's bits into cell coordinates.
+    std::array<std::uint64_t, dim> c{};
+    for (int b = 0; b < 2; ++b)
+      for (int d = 0; d < dim; ++d) c[d] |= ((k >> (dim * b + d)) & 1u) << b;
+    for (int d = 0; d < dim; ++d) EXPECT_EQ(set.position[d][k], static_cast<double>(c[d])) << "position " << k;
+  }
+  EXPECT_EQ(morton_key<2>({3, 0}), 5u);
+  EXPECT_EQ(morton_key<2>({0, 3}), 10u);
+  EXPECT_EQ(morton_key<3>({1, 1, 1}), 7u);
+  EXPECT_TRUE(spatial_order<dim>(SpatialOrder::none, points_of<dim>(set), 1.0).empty());
+  EXPECT_EQ(spatial_order<dim>(SpatialOrder::morton, points_of<dim>(set), 0.5),
+            morton_order<dim>(points_of<dim>(set), 0.5));
 }
 
 }  // namespace

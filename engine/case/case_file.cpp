@@ -546,6 +546,13 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
                        .value_or(std::vector<double>(dim, 0.0));
     m.finish();
   }
+  {  // [solver]
+    Table v = top.table("solver", false);
+    c.neighbor_search =
+        *parse_neighbor_search(v.text("neighbor_search", false, {"auto", "cell_list", "kd_tree"}).value_or("auto"));
+    c.transpose_lists = v.boolean("transpose_lists").value_or(false);
+    v.finish();
+  }
   {  // [time]
     Table t = top.table("time", true);
     c.end_time = t.real("end", true, "7.5e-3", positive, kPositive + " (s)").value_or(0.0);

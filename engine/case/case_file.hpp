@@ -88,6 +88,10 @@ struct CaseFile {
   bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
   std::vector<double> body_force;
 
+  // [solver]
+  NeighborSearch neighbor_search = NeighborSearch::automatic;
+  bool transpose_lists = false;
+
   // [time]
   double end_time = 0.0;
   double cfl = 0.0;  ///< dt = cfl dx / c_p, or

@@ -249,6 +249,8 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.velocity_wall = c.wall_gradient ? SolverSettings<Dim>::VelocityWall::wall_gradient
                                              : SolverSettings<Dim>::VelocityWall::characteristics;
   b.settings.surface_extrapolation = c.surface_extrapolation;
+  b.settings.neighbor_search = c.neighbor_search;
+  b.settings.transpose_lists = c.transpose_lists;
   b.material.emplace(c.young_modulus, c.poisson_ratio, c.density,
                      Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
   b.wave_speed = b.material->p_wave_speed(c.density);
