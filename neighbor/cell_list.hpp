@@ -46,11 +46,7 @@ class CellList {
   /// is indexed like the full list.
   NeighborList query_subset(const PointsView<Dim>& points, std::span<const std::uint32_t> rows,
                             bool exclude_self) const {
-    validate_finite_points(points, "query");  // the source was checked when indexed
-    for (std::uint32_t i : rows)
-      if (i >= points.count)
-        throw std::invalid_argument("neighbour search: row " + std::to_string(i) + " of " +
-                                    std::to_string(points.count) + " query points");
+    validate_subset_query(points, rows);
     return query_rows(points, rows.size(), [rows](std::size_t k) { return std::size_t{rows[k]}; },
                       exclude_self);
   }

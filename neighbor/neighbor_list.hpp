@@ -94,6 +94,17 @@ void validate_finite_points(const PointsView<Dim>& points, const char* which) {
   }
 }
 
+/// Checks the query points of a subset query (CellList / KdTree::query_subset): finite
+/// coordinates, and every listed row a valid query index.
+template <int Dim>
+void validate_subset_query(const PointsView<Dim>& points, std::span<const std::uint32_t> rows) {
+  validate_finite_points(points, "query");  // the source was checked when indexed
+  for (std::uint32_t i : rows)
+    if (i >= points.count)
+      throw std::invalid_argument("neighbour search: row " + std::to_string(i) + " of " +
+                                  std::to_string(points.count) + " query points");
+}
+
 /// Checks the inputs every search shares: a positive finite radius, finite
 /// coordinates, and counts that fit the 32-bit indices of the list.
 template <int Dim>

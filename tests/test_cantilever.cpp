@@ -41,21 +41,25 @@ void expect_seed_accuracy(PlaneMode mode) {
 TEST(Cantilever, PlaneStressMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_stress); }
 TEST(Cantilever, PlaneStrainMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_strain); }
 
+// The plane-stress beam of nodes_x x ((nodes_x - 1) / 10 + 1) particles with the wall
+// clamp and the hourglass stiffness 0.05, run to rest (at most 2 s).
+CantileverResult run_wall_clamped(int nodes_x, bool surface_extrapolation) {
+  CantileverSettings<2> s;
+  s.nodes_x = nodes_x;
+  s.nodes_y = (nodes_x - 1) / 10 + 1;
+  s.clamp = SolverSettings<2>::VelocityWall::wall_gradient;
+  s.hourglass_stiffness = 0.05;
+  s.surface_extrapolation = surface_extrapolation;
+  s.end_time = 2.0;
+  return run_cantilever(s);
+}
+
 // The clamp by the wall gradient (SolverSettings::VelocityWall::wall_gradient) and the
 // hourglass stiffness 0.05 bring the beam to rest at 41 x 5 and 61 x 7, and the error
 // falls at second order with dx (measured 19.15 % at 41 x 5, 4.65 % at 81 x 9: rate
 // 2.04; with the default characteristic clamp both creep: tools/tsph-spectrum, README).
 TEST(Cantilever, WallClampConvergesWhenTheSpacingShrinks) {
-  auto run = [](int nodes_x) {
-    CantileverSettings<2> s;
-    s.nodes_x = nodes_x;
-    s.nodes_y = (nodes_x - 1) / 10 + 1;
-    s.clamp = SolverSettings<2>::VelocityWall::wall_gradient;
-    s.hourglass_stiffness = 0.05;
-    s.end_time = 2.0;
-    return run_cantilever(s);
-  };
-  const CantileverResult coarse = run(41), fine = run(61);
+  const CantileverResult coarse = run_wall_clamped(41, false), fine = run_wall_clamped(61, false);
   ASSERT_TRUE(coarse.converged) << "t = " << coarse.time;
   ASSERT_TRUE(fine.converged) << "t = " << fine.time;
   EXPECT_LT(coarse.tip_error_percent, 25.0);
@@ -69,17 +73,7 @@ TEST(Cantilever, WallClampConvergesWhenTheSpacingShrinks) {
 // share of its bending stiffness (19.15 % at 41 x 5, 8.33 % at 61 x 7); with it
 // measured 2.33 % and 1.04 % (rate 1.98), 0.59 % at 81 x 9, 0.38 % at 101 x 11.
 TEST(Cantilever, SurfaceExtrapolationRemovesTheSoftOuterFibres) {
-  auto run = [](int nodes_x) {
-    CantileverSettings<2> s;
-    s.nodes_x = nodes_x;
-    s.nodes_y = (nodes_x - 1) / 10 + 1;
-    s.clamp = SolverSettings<2>::VelocityWall::wall_gradient;
-    s.hourglass_stiffness = 0.05;
-    s.surface_extrapolation = true;
-    s.end_time = 2.0;
-    return run_cantilever(s);
-  };
-  const CantileverResult coarse = run(41), fine = run(61);
+  const CantileverResult coarse = run_wall_clamped(41, true), fine = run_wall_clamped(61, true);
   ASSERT_TRUE(coarse.converged) << "t = " << coarse.time;
   ASSERT_TRUE(fine.converged) << "t = " << fine.time;
   EXPECT_LT(std::abs(coarse.tip_error_percent), 4.0) << "tip " << coarse.tip_deflection;
