@@ -40,6 +40,7 @@ struct Options {
   int nodes_x = 41;
   double alpha = 0.6, cfl = 0.9, damping = -1.0, hourglass = 0.02, hourglass_stiffness = 0.0;
   std::string clamp = "characteristics";
+  bool surface_extrapolation = false;
   int modes = 8;
   std::string out = "out/spectrum";
   int threads = 0;
@@ -182,6 +183,7 @@ int run(const Options& o) {
   s.hourglass_stiffness = o.hourglass_stiffness;
   s.clamp = o.clamp == "wall-gradient" ? SolverSettings<Dim>::VelocityWall::wall_gradient
                                        : SolverSettings<Dim>::VelocityWall::characteristics;
+  s.surface_extrapolation = o.surface_extrapolation;
   if (const auto errors = validate(s); !errors.empty()) {
     for (const auto& e : errors) fmt::print(stderr, "tsph-spectrum: error: {}\n", e.message());
     return cli::kExitBadInput;
@@ -420,6 +422,8 @@ int main(int argc, char** argv) {
                  "stress of the clamped particles: characteristics | wall-gradient (bulk update "
                  "with the half-step velocity gradient taken relative to the wall velocity)")
       ->capture_default_str()->check(CLI::IsMember({"characteristics", "wall-gradient"}));
+  app.add_flag("--surface-extrapolation", o.surface_extrapolation,
+               "free-surface tangential strain rate extrapolated to the surface (SolverSettings)");
   app.add_option("--modes", o.modes, "leading modes written to modes.csv")->capture_default_str();
   app.add_option("--out", o.out, "output directory")->capture_default_str();
   app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");
