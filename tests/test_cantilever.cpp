@@ -27,8 +27,31 @@ TEST(CantileverExact, TipDeflectionMatchesTheReference) {
   EXPECT_NEAR(force, s.load, 1e-3 * s.load);
 }
 
-// 101 x 11 real particles (the seed's discretisation): tip deflection within 2 % of
-// the exact value and the L2 error of u_y along the axis below 3 % (issue 3).
+// The 2D defaults are the wall clamp, the hourglass stiffness 0.05 and the surface
+// extrapolation; 3D keeps the characteristic clamp and neither of the others (with the
+// stiffness 0.05 two 3D tip-edge modes are unstable: README, Known problems).
+TEST(Cantilever, DefaultsAreTheConvergedOptionsIn2DOnly) {
+  const CantileverSettings<2> plane;
+  EXPECT_EQ(plane.clamp, SolverSettings<2>::VelocityWall::wall_gradient);
+  EXPECT_EQ(plane.hourglass_stiffness, 0.05);
+  EXPECT_TRUE(plane.surface_extrapolation);
+  const CantileverSettings<3> solid;
+  EXPECT_EQ(solid.clamp, SolverSettings<3>::VelocityWall::characteristics);
+  EXPECT_EQ(solid.hourglass_stiffness, 0.0);
+  EXPECT_FALSE(solid.surface_extrapolation);
+  // make_cantilever hands them to the solver.
+  CantileverSettings<2> small = plane;
+  small.nodes_x = 21;
+  small.nodes_y = 3;
+  const CantileverModel<2> model = make_cantilever(small);
+  EXPECT_EQ(model.solver->settings().velocity_wall, SolverSettings<2>::VelocityWall::wall_gradient);
+  EXPECT_EQ(model.solver->settings().hourglass_stiffness, 0.05);
+  EXPECT_TRUE(model.solver->settings().surface_extrapolation);
+}
+
+// 101 x 11 real particles (the seed's discretisation), the defaults: tip deflection
+// within 2 % of the exact value and the L2 error of u_y along the axis below 3 %
+// (issue 3). Measured: plane stress 0.38 % and 0.51 %, plane strain 0.32 % and 0.42 %.
 void expect_seed_accuracy(PlaneMode mode) {
   CantileverSettings<2> s;  // defaults: 101 x 11, alpha 0.6, CFL 0.9, small strain
   s.plane_mode = mode;
@@ -36,50 +59,51 @@ void expect_seed_accuracy(PlaneMode mode) {
   EXPECT_TRUE(r.converged) << "t = " << r.time;
   EXPECT_LT(r.tip_error_percent, 2.0) << "tip " << r.tip_deflection << " exact " << r.tip_exact;
   EXPECT_LT(r.axis_l2_error_percent, 3.0);
+  // At rest within about a second (ramp 0.31 s; measured 0.95 s and 0.82 s), not at the
+  // time limit: a creeping beam would not get there.
+  EXPECT_LT(r.time, 1.5);
   EXPECT_EQ(r.real_particles, 1111u);
 }
 TEST(Cantilever, PlaneStressMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_stress); }
 TEST(Cantilever, PlaneStrainMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_strain); }
 
-// The plane-stress beam of nodes_x x ((nodes_x - 1) / 10 + 1) particles with the wall
-// clamp and the hourglass stiffness 0.05, run to rest (at most 2 s).
-CantileverResult run_wall_clamped(int nodes_x, bool surface_extrapolation) {
+// The plane-stress beam of nodes_x x ((nodes_x - 1) / 10 + 1) particles with the
+// defaults (surface extrapolation on or off), run to rest (at most 2 s).
+CantileverResult run_beam(int nodes_x, bool surface_extrapolation) {
   CantileverSettings<2> s;
   s.nodes_x = nodes_x;
   s.nodes_y = (nodes_x - 1) / 10 + 1;
-  s.clamp = SolverSettings<2>::VelocityWall::wall_gradient;
-  s.hourglass_stiffness = 0.05;
   s.surface_extrapolation = surface_extrapolation;
   s.end_time = 2.0;
   return run_cantilever(s);
 }
 
-// The clamp by the wall gradient (SolverSettings::VelocityWall::wall_gradient) and the
-// hourglass stiffness 0.05 bring the beam to rest at 41 x 5 and 61 x 7, and the error
-// falls at second order with dx (measured 19.15 % at 41 x 5, 4.65 % at 81 x 9: rate
-// 2.04; with the default characteristic clamp both creep: tools/tsph-spectrum, README).
-TEST(Cantilever, WallClampConvergesWhenTheSpacingShrinks) {
-  const CantileverResult coarse = run_wall_clamped(41, false), fine = run_wall_clamped(61, false);
-  ASSERT_TRUE(coarse.converged) << "t = " << coarse.time;
-  ASSERT_TRUE(fine.converged) << "t = " << fine.time;
-  EXPECT_LT(coarse.tip_error_percent, 25.0);
-  const double rate = std::log(coarse.tip_error_percent / fine.tip_error_percent) / std::log(1.5);
-  EXPECT_GT(rate, 1.5) << coarse.tip_error_percent << " % -> " << fine.tip_error_percent << " %";
-}
-
-// SolverSettings::surface_extrapolation: the free-surface particles' tangential strain
-// rate moved from the virtual row half a cell inside to the surface. Without it the
-// outer fibres are softer by (dx / 2) / (D / 2) and the beam too flexible by about that
-// share of its bending stiffness (19.15 % at 41 x 5, 8.33 % at 61 x 7); with it
-// measured 2.33 % and 1.04 % (rate 1.98), 0.59 % at 81 x 9, 0.38 % at 101 x 11.
-TEST(Cantilever, SurfaceExtrapolationRemovesTheSoftOuterFibres) {
-  const CantileverResult coarse = run_wall_clamped(41, true), fine = run_wall_clamped(61, true);
+// With the defaults the error falls at second order with dx: measured 2.33 % at 41 x 5
+// and 1.04 % at 61 x 7 (rate 1.98), 0.59 % at 81 x 9, 0.38 % at 101 x 11 (README, The
+// cantilever). The creeping characteristic clamp had no rate.
+TEST(Cantilever, DefaultsConvergeAtSecondOrder) {
+  const CantileverResult coarse = run_beam(41, true), fine = run_beam(61, true);
   ASSERT_TRUE(coarse.converged) << "t = " << coarse.time;
   ASSERT_TRUE(fine.converged) << "t = " << fine.time;
   EXPECT_LT(std::abs(coarse.tip_error_percent), 4.0) << "tip " << coarse.tip_deflection;
   EXPECT_LT(coarse.axis_l2_error_percent, 4.0);
   const double rate = std::log(coarse.tip_error_percent / fine.tip_error_percent) / std::log(1.5);
-  EXPECT_GT(rate, 1.5) << coarse.tip_error_percent << " % -> " << fine.tip_error_percent << " %";
+  EXPECT_NEAR(rate, 2.0, 0.3) << coarse.tip_error_percent << " % -> " << fine.tip_error_percent << " %";
+  const double axis_rate =
+      std::log(coarse.axis_l2_error_percent / fine.axis_l2_error_percent) / std::log(1.5);
+  EXPECT_NEAR(axis_rate, 2.0, 0.4) << coarse.axis_l2_error_percent << " % -> " << fine.axis_l2_error_percent << " %";
+}
+
+// SolverSettings::surface_extrapolation: the free-surface particles' tangential strain
+// rate moved from the virtual row half a cell inside to the surface. Without it the
+// outer fibres are softer by (dx / 2) / (D / 2) and the beam too flexible by about that
+// share of its bending stiffness: predicted 20.0 % at 41 x 5, measured 19.15 % (with
+// it 2.33 %).
+TEST(Cantilever, WithoutSurfaceExtrapolationTheOuterFibresAreSoft) {
+  const CantileverResult r = run_beam(41, false);
+  ASSERT_TRUE(r.converged) << "t = " << r.time;
+  EXPECT_GT(r.tip_deflection, r.tip_exact);  // too flexible
+  EXPECT_NEAR(r.tip_error_percent, 19.15, 1.0);
 }
 
 TEST(Cantilever, ValidationNamesTheParameter) {
