@@ -106,6 +106,9 @@ struct CantileverModel {
   double ramp = 0.0;        ///< load ramp time (s)
   std::size_t tip = 0;      ///< the real particle at the tip on the axis
   std::vector<std::size_t> axis;  ///< the real particles on the axis
+  /// The solver's boundary conditions (free surface, tip shear, clamp), for building
+  /// another solver on the same case.
+  std::vector<BoundaryCondition<Dim>> conditions;
 };
 
 /// Builds the particles, conditions and solver of the cantilever (throws on invalid
