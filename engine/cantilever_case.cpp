@@ -171,6 +171,7 @@ CantileverModel<Dim> make_cantilever(const CantileverSettings<Dim>& s) {
   settings.velocity_wall = s.clamp;
   settings.surface_extrapolation = s.surface_extrapolation;
   const LinearElastic<Dim> material(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode);
+  model.conditions = conditions;
   model.solver = std::make_unique<TaylorSph<Dim>>(std::move(real), std::move(virtual_particles),
                                                   material, settings, conditions);
   model.time_step = s.cfl * dx / material.p_wave_speed(s.density);

@@ -358,6 +358,34 @@ class TaylorSph {
     ++counters_.steps;
   }
 
+  /// Renumbers the particles: new real particle k is old real_order[k], new virtual
+  /// particle k old virtual_order[k] (each a permutation), with every per-particle state
+  /// of the stepper (permute_state), and builds the neighbour lists again. The run goes
+  /// on as it would have, up to the order of sums (round-off). SolverSettings::
+  /// spatial_order does this itself when the order decays; exposed to impose an order.
+  void permute_particles(const std::vector<std::uint32_t>& real_order,
+                         const std::vector<std::uint32_t>& virtual_order) {
+    auto require_permutation = [](const std::vector<std::uint32_t>& order, std::size_t count,
+                                  const char* set) {
+      std::vector<char> seen(count, 0);
+      bool valid = order.size() == count;
+      for (std::size_t k = 0; valid && k < order.size(); ++k) {
+        valid = order[k] < count && !seen[order[k]];
+        if (valid) seen[order[k]] = 1;
+      }
+      if (!valid)
+        throw std::invalid_argument(std::string("solver: permute_particles: the ") + set +
+                                    " order is not a permutation of the " + std::to_string(count) +
+                                    " " + set + " particles (" + std::to_string(order.size()) +
+                                    " entries, each index once)");
+    };
+    require_permutation(real_order, real_.size(), "real");
+    require_permutation(virtual_order, virtual_.size(), "virtual");
+    permute_state(real_order, virtual_order);
+    build_lists();
+    sorted_spread_ = -1.0;  // the sorted order's spread, measured again at the next rebuild
+  }
+
   /// Kinetic energy sum_I m_I |v_I|^2 / 2 of the real particles.
   double kinetic_energy() const {
     double energy = 0.0;
@@ -1290,12 +1318,30 @@ class TaylorSph {
     return spatial_order<Dim>(settings_.spatial_order, points_of<Dim>(set), 0.25 * support_radius());
   }
 
-  /// Sorts both sets (ParticleSet::permute) and renumbers what refers to real indices:
-  /// the boundary slots (kept in increasing real index) and their persistent state.
+  /// Sorts both sets into SolverSettings::spatial_order (permute_state).
   void sort_particles() {
-    const std::vector<std::uint32_t> real_order = order_of(real_);
+    permute_state(order_of(real_), order_of(virtual_));
+    ++counters_.reorders;
+  }
+
+  /// Renumbers both sets (ParticleSet::permute: new real particle k is old real_order[k],
+  /// likewise for the virtual set) and every per-particle state of the stepper held
+  /// outside them:
+  ///  - per real particle: previous_velocity_ (v^n) permuted; boundary_slot_ rebuilt;
+  ///  - per boundary slot (slots kept in increasing real index): every boundary_* array
+  ///    and filtered_velocity_ permuted with the slots: the persistent ones (profile,
+  ///    surface flag, normal) and the per-step ones (the state at n and its gradients,
+  ///    the half-step gradients, velocity, gradient sum and stencil offset of the wall
+  ///    gradient and the surface extrapolation), so that none is left at another
+  ///    particle's slot;
+  ///  - index-based lists and scratch recomputed from scratch at their next use: the
+  ///    hourglass stiffness's lists (hourglass_list_build_) and fits, the conservative
+  ///    momentum's weights and pair list (rebuilt every step), cleared here.
+  /// The caller builds the neighbour lists again.
+  void permute_state(const std::vector<std::uint32_t>& real_order,
+                     const std::vector<std::uint32_t>& virtual_order) {
     real_.permute(real_order);
-    virtual_.permute(order_of(virtual_));
+    virtual_.permute(virtual_order);
     for (auto& v : previous_velocity_) {
       std::vector<double> reordered(v.size());
       for (std::size_t k = 0; k < real_order.size(); ++k) reordered[k] = v[real_order[k]];
@@ -1318,14 +1364,35 @@ class TaylorSph {
     permute_slots(boundary_profile_);
     permute_slots(boundary_on_surface_);
     permute_slots(boundary_normal_);
+    permute_slots(boundary_stress_);
+    permute_slots(boundary_velocity_);
+    permute_slots(boundary_density_);
+    permute_slots(boundary_stress_gradient_);
+    permute_slots(boundary_velocity_gradient_);
+    permute_slots(boundary_half_stress_gradient_);
+    permute_slots(boundary_half_velocity_gradient_);
+    permute_slots(boundary_half_velocity_);
+    permute_slots(boundary_stencil_offset_);
+    permute_slots(boundary_gradient_sum_);
+    permute_slots(filtered_velocity_);
     std::vector<std::uint32_t> particles(boundary_particles_.size());
     for (std::size_t s = 0; s < slot_order.size(); ++s) particles[s] = new_index[boundary_particles_[slot_order[s]]];
     boundary_particles_.swap(particles);
     boundary_slot_.assign(real_.size(), -1);
     for (std::size_t s = 0; s < boundary_particles_.size(); ++s)
       boundary_slot_[boundary_particles_[s]] = static_cast<std::int32_t>(s);
-    hourglass_list_build_ = -1;  // its lists are by index: built again when used
-    ++counters_.reorders;
+    // By index, rebuilt at their next use.
+    hourglass_list_build_ = -1;
+    hourglass_from_virtual_ = NeighborList{};
+    hourglass_to_real_ = NeighborList{};
+    forward_fit_.clear();
+    return_fit_.clear();
+    virtual_value_.clear();
+    round_trip_residual_.clear();
+    momentum_weight_.clear();
+    momentum_pairs_ = NeighborList{};
+    momentum_pair_.clear();
+    momentum_pair_virtual_.clear();
   }
 
   /// Neighbour lists of both half-steps and of the real set, and the boundary normals

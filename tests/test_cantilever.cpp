@@ -4,7 +4,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <vector>
 
 namespace tsph {
 namespace {
@@ -27,8 +33,31 @@ TEST(CantileverExact, TipDeflectionMatchesTheReference) {
   EXPECT_NEAR(force, s.load, 1e-3 * s.load);
 }
 
-// 101 x 11 real particles (the seed's discretisation): tip deflection within 2 % of
-// the exact value and the L2 error of u_y along the axis below 3 % (issue 3).
+// The 2D defaults are the wall clamp, the hourglass stiffness 0.05 and the surface
+// extrapolation; 3D keeps the characteristic clamp and neither of the others (with the
+// stiffness 0.05 two 3D tip-edge modes are unstable: README, Known problems).
+TEST(Cantilever, DefaultsAreTheConvergedOptionsIn2DOnly) {
+  const CantileverSettings<2> plane;
+  EXPECT_EQ(plane.clamp, SolverSettings<2>::VelocityWall::wall_gradient);
+  EXPECT_EQ(plane.hourglass_stiffness, 0.05);
+  EXPECT_TRUE(plane.surface_extrapolation);
+  const CantileverSettings<3> solid;
+  EXPECT_EQ(solid.clamp, SolverSettings<3>::VelocityWall::characteristics);
+  EXPECT_EQ(solid.hourglass_stiffness, 0.0);
+  EXPECT_FALSE(solid.surface_extrapolation);
+  // make_cantilever hands them to the solver.
+  CantileverSettings<2> small = plane;
+  small.nodes_x = 21;
+  small.nodes_y = 3;
+  const CantileverModel<2> model = make_cantilever(small);
+  EXPECT_EQ(model.solver->settings().velocity_wall, SolverSettings<2>::VelocityWall::wall_gradient);
+  EXPECT_EQ(model.solver->settings().hourglass_stiffness, 0.05);
+  EXPECT_TRUE(model.solver->settings().surface_extrapolation);
+}
+
+// 101 x 11 real particles (the seed's discretisation), the defaults: tip deflection
+// within 2 % of the exact value and the L2 error of u_y along the axis below 3 %
+// (issue 3). Measured: plane stress 0.38 % and 0.51 %, plane strain 0.32 % and 0.42 %.
 void expect_seed_accuracy(PlaneMode mode) {
   CantileverSettings<2> s;  // defaults: 101 x 11, alpha 0.6, CFL 0.9, small strain
   s.plane_mode = mode;
@@ -36,51 +65,151 @@ void expect_seed_accuracy(PlaneMode mode) {
   EXPECT_TRUE(r.converged) << "t = " << r.time;
   EXPECT_LT(r.tip_error_percent, 2.0) << "tip " << r.tip_deflection << " exact " << r.tip_exact;
   EXPECT_LT(r.axis_l2_error_percent, 3.0);
+  // At rest within about a second (ramp 0.31 s; measured 0.95 s and 0.82 s), not at the
+  // time limit: a creeping beam would not get there.
+  EXPECT_LT(r.time, 1.5);
   EXPECT_EQ(r.real_particles, 1111u);
 }
 TEST(Cantilever, PlaneStressMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_stress); }
 TEST(Cantilever, PlaneStrainMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_strain); }
 
-// The plane-stress beam of nodes_x x ((nodes_x - 1) / 10 + 1) particles with the wall
-// clamp and the hourglass stiffness 0.05, run to rest (at most 2 s).
-CantileverResult run_wall_clamped(int nodes_x, bool surface_extrapolation) {
+// The plane-stress beam of nodes_x x ((nodes_x - 1) / 10 + 1) particles with the
+// defaults (surface extrapolation on or off), run to rest (at most 2 s).
+CantileverResult run_beam(int nodes_x, bool surface_extrapolation) {
   CantileverSettings<2> s;
   s.nodes_x = nodes_x;
   s.nodes_y = (nodes_x - 1) / 10 + 1;
-  s.clamp = SolverSettings<2>::VelocityWall::wall_gradient;
-  s.hourglass_stiffness = 0.05;
   s.surface_extrapolation = surface_extrapolation;
   s.end_time = 2.0;
   return run_cantilever(s);
 }
 
-// The clamp by the wall gradient (SolverSettings::VelocityWall::wall_gradient) and the
-// hourglass stiffness 0.05 bring the beam to rest at 41 x 5 and 61 x 7, and the error
-// falls at second order with dx (measured 19.15 % at 41 x 5, 4.65 % at 81 x 9: rate
-// 2.04; with the default characteristic clamp both creep: tools/tsph-spectrum, README).
-TEST(Cantilever, WallClampConvergesWhenTheSpacingShrinks) {
-  const CantileverResult coarse = run_wall_clamped(41, false), fine = run_wall_clamped(61, false);
-  ASSERT_TRUE(coarse.converged) << "t = " << coarse.time;
-  ASSERT_TRUE(fine.converged) << "t = " << fine.time;
-  EXPECT_LT(coarse.tip_error_percent, 25.0);
-  const double rate = std::log(coarse.tip_error_percent / fine.tip_error_percent) / std::log(1.5);
-  EXPECT_GT(rate, 1.5) << coarse.tip_error_percent << " % -> " << fine.tip_error_percent << " %";
-}
-
-// SolverSettings::surface_extrapolation: the free-surface particles' tangential strain
-// rate moved from the virtual row half a cell inside to the surface. Without it the
-// outer fibres are softer by (dx / 2) / (D / 2) and the beam too flexible by about that
-// share of its bending stiffness (19.15 % at 41 x 5, 8.33 % at 61 x 7); with it
-// measured 2.33 % and 1.04 % (rate 1.98), 0.59 % at 81 x 9, 0.38 % at 101 x 11.
-TEST(Cantilever, SurfaceExtrapolationRemovesTheSoftOuterFibres) {
-  const CantileverResult coarse = run_wall_clamped(41, true), fine = run_wall_clamped(61, true);
+// With the defaults the error falls at second order with dx: measured 2.33 % at 41 x 5
+// and 1.04 % at 61 x 7 (rate 1.98), 0.59 % at 81 x 9, 0.38 % at 101 x 11 (README, The
+// cantilever). The creeping characteristic clamp had no rate.
+TEST(Cantilever, DefaultsConvergeAtSecondOrder) {
+  const CantileverResult coarse = run_beam(41, true), fine = run_beam(61, true);
   ASSERT_TRUE(coarse.converged) << "t = " << coarse.time;
   ASSERT_TRUE(fine.converged) << "t = " << fine.time;
   EXPECT_LT(std::abs(coarse.tip_error_percent), 4.0) << "tip " << coarse.tip_deflection;
   EXPECT_LT(coarse.axis_l2_error_percent, 4.0);
   const double rate = std::log(coarse.tip_error_percent / fine.tip_error_percent) / std::log(1.5);
-  EXPECT_GT(rate, 1.5) << coarse.tip_error_percent << " % -> " << fine.tip_error_percent << " %";
+  EXPECT_NEAR(rate, 2.0, 0.3) << coarse.tip_error_percent << " % -> " << fine.tip_error_percent << " %";
+  const double axis_rate =
+      std::log(coarse.axis_l2_error_percent / fine.axis_l2_error_percent) / std::log(1.5);
+  EXPECT_NEAR(axis_rate, 2.0, 0.4) << coarse.axis_l2_error_percent << " % -> " << fine.axis_l2_error_percent << " %";
 }
+
+// SolverSettings::surface_extrapolation: the free-surface particles' tangential strain
+// rate moved from the virtual row half a cell inside to the surface. Without it the
+// outer fibres are softer by (dx / 2) / (D / 2) and the beam too flexible by about that
+// share of its bending stiffness: predicted 20.0 % at 41 x 5, measured 19.15 % (with
+// it 2.33 %).
+TEST(Cantilever, WithoutSurfaceExtrapolationTheOuterFibresAreSoft) {
+  const CantileverResult r = run_beam(41, false);
+  ASSERT_TRUE(r.converged) << "t = " << r.time;
+  EXPECT_GT(r.tip_deflection, r.tip_exact);  // too flexible
+  EXPECT_NEAR(r.tip_error_percent, 19.15, 1.0);
+}
+
+// Renumbering the particles carries every per-particle state of the stepper with them
+// (TaylorSph::permute_particles and the sort of SolverSettings::spatial_order, both
+// through permute_state): the boundary slots' surface flags, profiles and normals, the
+// wall gradient's and the surface extrapolation's data, v^n, the hourglass stiffness's
+// lists, the conservative momentum's weights. The 41 x 5 beam with the defaults (and
+// the conservative momentum, and updated Lagrangian kinematics, as parameters), 300
+// steps of the load ramp: (1) given in random order with spatial_order = cells, it is
+// sorted once at construction; (2) permuted at random after 150 steps (with
+// spatial_order = cells the updated-Lagrangian run sorts it back at the next rebuild).
+// Both runs equal the lattice-ordered one particle by particle (by id) to round-off.
+class CantileverPermutation : public ::testing::TestWithParam<std::tuple<Kinematics, bool>> {};
+
+std::vector<std::uint32_t> random_order(std::size_t count, std::uint64_t seed) {
+  std::vector<std::uint32_t> order(count);
+  for (std::size_t k = 0; k < count; ++k) order[k] = static_cast<std::uint32_t>(k);
+  std::mt19937_64 rng(seed);
+  std::shuffle(order.begin(), order.end(), rng);
+  return order;
+}
+
+/// |a - b| particle by particle, matched by id, relative to the largest |b| of each field.
+void expect_same_up_to_permutation(const ParticleSet<2>& a, const ParticleSet<2>& b, const std::string& what) {
+  ASSERT_EQ(a.size(), b.size());
+  std::vector<std::size_t> at(a.size());
+  for (std::size_t k = 0; k < a.size(); ++k) at[a.id[k]] = k;
+  auto check = [&](const std::vector<double>& field_a, const std::vector<double>& field_b, const char* name) {
+    double scale = 0.0, worst = 0.0;
+    for (double v : field_b) scale = std::max(scale, std::abs(v));
+    for (std::size_t i = 0; i < b.size(); ++i)
+      worst = std::max(worst, std::abs(field_a[at[b.id[i]]] - field_b[i]));
+    EXPECT_LE(worst, 1e-9 * scale) << what << ": " << name << " (scale " << scale << ")";
+    return scale;
+  };
+  for (int d = 0; d < 2; ++d) {
+    check(a.position[d], b.position[d], "position");
+    check(a.velocity[d], b.velocity[d], "velocity");
+    EXPECT_GT(check(a.displacement[d], b.displacement[d], "displacement"), 0.0) << what;
+  }
+  for (int m = 0; m < stress_component_count<2>; ++m) check(a.stress[m], b.stress[m], "stress");
+  check(a.density, b.density, "density");
+}
+
+TEST_P(CantileverPermutation, RenumberedParticlesRunAsTheLattice) {
+  const auto [kinematics, conservative] = GetParam();
+  const bool moving = kinematics == Kinematics::updated_lagrangian;
+  CantileverSettings<2> s;  // the defaults: wall clamp, stiffness 0.05, extrapolation
+  s.nodes_x = 41;
+  s.nodes_y = 5;
+  s.kinematics = kinematics;
+  const CantileverModel<2> model = make_cantilever(s);
+  const ParticleSet<2> real = model.solver->real();
+  const ParticleSet<2> virtual_particles = model.solver->virtual_particles();
+  SolverSettings<2> settings = model.solver->settings();
+  settings.conservative_momentum = conservative;
+  const int steps = 300;
+  auto solver_on = [&](ParticleSet<2> r, ParticleSet<2> v, SpatialOrder order) {
+    SolverSettings<2> with_order = settings;
+    with_order.spatial_order = order;
+    return TaylorSph<2>(std::move(r), std::move(v), model.solver->material(), with_order, model.conditions);
+  };
+
+  TaylorSph<2> lattice = solver_on(real, virtual_particles, SpatialOrder::none);
+  for (int k = 0; k < steps; ++k) lattice.step(model.time_step);
+  ASSERT_GT(std::abs(lattice.real().displacement[1][model.tip]), 0.0);
+
+  ParticleSet<2> shuffled_real = real, shuffled_virtual = virtual_particles;
+  shuffled_real.permute(random_order(real.size(), 3));
+  shuffled_virtual.permute(random_order(virtual_particles.size(), 4));
+  TaylorSph<2> sorted = solver_on(shuffled_real, shuffled_virtual, SpatialOrder::cells);
+  EXPECT_EQ(sorted.counters().reorders, 1);
+  for (int k = 0; k < steps; ++k) sorted.step(model.time_step);
+  expect_same_up_to_permutation(sorted.real(), lattice.real(), "shuffled, sorted at construction");
+
+  TaylorSph<2> renumbered = solver_on(real, virtual_particles, SpatialOrder::cells);
+  for (int k = 0; k < steps / 2; ++k) renumbered.step(model.time_step);
+  renumbered.permute_particles(random_order(real.size(), 5), random_order(virtual_particles.size(), 6));
+  bool permuted = false;
+  for (std::size_t k = 0; k < real.size(); ++k) permuted = permuted || renumbered.real().id[k] != k;
+  EXPECT_TRUE(permuted);
+  for (int k = steps / 2; k < steps; ++k) renumbered.step(model.time_step);
+  // Updated Lagrangian: the random order has decayed, so the next rebuild sorts it.
+  EXPECT_EQ(renumbered.counters().reorders, moving ? 1 : 0);
+  expect_same_up_to_permutation(renumbered.real(), lattice.real(), "permuted at random mid-run");
+
+  // Not a permutation: refused, with the set named.
+  std::vector<std::uint32_t> twice = random_order(real.size(), 7);
+  twice[0] = twice[1];
+  EXPECT_THROW(renumbered.permute_particles(twice, random_order(virtual_particles.size(), 8)),
+               std::invalid_argument);
+}
+INSTANTIATE_TEST_SUITE_P(
+    Options, CantileverPermutation,
+    ::testing::Combine(::testing::Values(Kinematics::small_strain, Kinematics::updated_lagrangian),
+                       ::testing::Bool()),
+    [](const ::testing::TestParamInfo<std::tuple<Kinematics, bool>>& p) {
+      return std::string(std::get<0>(p.param) == Kinematics::small_strain ? "SmallStrain" : "UpdatedLagrangian") +
+             (std::get<1>(p.param) ? "ConservativeMomentum" : "");
+    });
 
 TEST(Cantilever, ValidationNamesTheParameter) {
   CantileverSettings<2> s;

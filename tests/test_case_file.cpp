@@ -331,19 +331,23 @@ TEST_F(CaseFileTest, BarCaseFileReproducesRunBar) {
 // particles, conditions, parabolic tip shear, ramp, damping and hourglass filter, over
 // the first 233 steps (the last step of the case lands on time.end, so the time
 // differs by round-off: equal to 1e-9, not bitwise).
-// With method.velocity_wall = "wall_gradient", method.hourglass_stiffness = 0.05 and
-// method.surface_extrapolation = true the case file runs tsph-cantilever's --clamp
-// wall-gradient --hourglass-stiffness 0.05 --surface-extrapolation.
+// The case file holds tsph-cantilever's 2D defaults (method.velocity_wall =
+// "wall_gradient", method.hourglass_stiffness = 0.05, method.surface_extrapolation =
+// true); with the three set back (characteristics, 0, false) it runs tsph-cantilever's
+// --clamp characteristics --hourglass-stiffness 0 --no-surface-extrapolation.
 class CantileverCaseFile : public CaseFileTest, public ::testing::WithParamInterface<bool> {};
 
 TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
   const bool wall_gradient = GetParam();
   set_thread_count(1);
   CantileverSettings<2> s;  // seed 4.2 defaults: 101 x 11, plane stress, P = 1000 N
-  if (wall_gradient) {
-    s.clamp = SolverSettings<2>::VelocityWall::wall_gradient;
-    s.hourglass_stiffness = 0.05;
-    s.surface_extrapolation = true;
+  ASSERT_EQ(s.clamp, SolverSettings<2>::VelocityWall::wall_gradient);  // the 2D defaults
+  ASSERT_EQ(s.hourglass_stiffness, 0.05);
+  ASSERT_TRUE(s.surface_extrapolation);
+  if (!wall_gradient) {
+    s.clamp = SolverSettings<2>::VelocityWall::characteristics;
+    s.hourglass_stiffness = 0.0;
+    s.surface_extrapolation = false;
   }
   const double dt = s.cfl * s.spacing() /
                     LinearElastic<2>(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode).p_wave_speed(s.density);
@@ -353,12 +357,15 @@ TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
   char end[64];
   std::snprintf(end, sizeof end, "time.end=%.17g", 233 * dt);
   std::vector<std::string> overrides{end, "damping.rest_velocity=0"};
-  if (wall_gradient) {
-    overrides.emplace_back("method.velocity_wall=wall_gradient");
-    overrides.emplace_back("method.hourglass_stiffness=0.05");
-    overrides.emplace_back("method.surface_extrapolation=true");
+  if (!wall_gradient) {
+    overrides.emplace_back("method.velocity_wall=characteristics");
+    overrides.emplace_back("method.hourglass_stiffness=0");
+    overrides.emplace_back("method.surface_extrapolation=false");
   }
   const CaseFile c = load_case((kCases / "cantilever_2d.toml").string(), overrides);
+  EXPECT_EQ(c.wall_gradient, wall_gradient);
+  EXPECT_EQ(c.hourglass_stiffness, wall_gradient ? 0.05 : 0.0);
+  EXPECT_EQ(c.surface_extrapolation, wall_gradient);
   RunOptions options;
   options.out_dir = directory_.string();
   options.quiet = true;

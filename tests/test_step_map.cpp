@@ -68,7 +68,9 @@ TEST(StepMap, CantileverMapReproducesAStep) {
   TaylorSph<2>& solver = *model.solver;
   const double dt = model.time_step, t = model.ramp + model.period;
   const auto layout = step_map_layout(solver, dt);
-  ASSERT_EQ(layout.unknowns.size(), 21u * 3u * 5u);  // plane stress: sxx, syy, sxy, vx, vy
+  // Plane stress: sxx, syy, sxy, vx, vy, and ux, uy for the hourglass stiffness (on by
+  // default in 2D, as are the wall clamp and the surface extrapolation).
+  ASSERT_EQ(layout.unknowns.size(), 21u * 3u * 7u);
   const Eigen::MatrixXd map = assemble_step_map(solver, layout, 0.0, dt);
   const auto n = static_cast<Eigen::Index>(layout.unknowns.size());
   const Eigen::VectorXd load = apply_step(solver, layout, Eigen::VectorXd::Zero(n), t, dt);

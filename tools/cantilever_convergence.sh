@@ -4,8 +4,9 @@
 # log2(e(2 dx) / e(dx)). Not part of the test suite (the finest run takes minutes).
 #
 #   tools/cantilever_convergence.sh                       # nx = 41 81 161 (dx = L/40, /80, /160)
-#   NX="41 81 101 161" tools/cantilever_convergence.sh --clamp wall-gradient --hourglass-stiffness 0.05
-#   NX="41 81 101" tools/cantilever_convergence.sh --clamp wall-gradient --hourglass-stiffness 0.05 --plane strain
+#   NX="41 61 81 101" tools/cantilever_convergence.sh --plane strain
+#   NX="41 81" tools/cantilever_convergence.sh --clamp characteristics --hourglass-stiffness 0 \
+#       --no-surface-extrapolation                        # the 2D defaults before 2026-11-23 (creep)
 #
 # Extra arguments go to every tsph-cantilever run. Outputs: out/cantilever-convergence/nx<N>/.
 # A run that does not come to rest (exit status 3) is reported as such, with its error
