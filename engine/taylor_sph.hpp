@@ -560,33 +560,93 @@ class TaylorSph {
     Vec stress_divergence = Vec::Zero();  ///< div sigma
   };
 
-  /// Interpolates U at the query point and takes the corrected gradients of the
-  /// velocity and the divergence of the stress, both relative to the interpolated
-  /// value at the query point (DESIGN.md section 2).
-  static LocalState evaluate(const ParticleView<Dim>& source, std::span<const std::uint32_t> nb,
-                             const StencilWeights<Dim>& w) {
-    LocalState s;
-    for (std::size_t k = 0; k < nb.size(); ++k) {
-      const std::uint32_t j = nb[k];
-      const double c = w.value[k];
-      for (int m = 0; m < stress_count; ++m) s.stress[m] += c * source.stress[m][j];
-      for (int d = 0; d < Dim; ++d) s.velocity[d] += c * source.velocity[d][j];
-      s.density += c * source.density[j];
+  /// Source values of one stencil row gathered into contiguous buffers (stress
+  /// components, then velocity, then density), padded like StencilWeights.
+  static constexpr int gathered_count = stress_count + Dim + 1;
+  struct GatheredSource {
+    std::array<PackBuffer, gathered_count> field;
+  };
+  /// Per-thread scratch of the half and full steps.
+  struct StepScratch {
+    StencilWeights<Dim> weights;
+    GatheredSource gathered;
+  };
+
+  /// The body of evaluate, compiled once per instruction set (kernels/simd.hpp).
+  [[gnu::always_inline]] static LocalState evaluate_in_packs(const ParticleView<Dim>& source,
+                                                              std::span<const std::uint32_t> nb,
+                                                              const StencilWeights<Dim>& w,
+                                                              GatheredSource& gathered) {
+    constexpr int velocity_field = stress_count, density_field = stress_count + Dim;
+    const std::size_t n = nb.size();
+    const std::size_t padded = padded_size(n);
+    std::array<double*, gathered_count> f;
+    for (int m = 0; m < gathered_count; ++m) {
+      if (gathered.field[m].size() < padded) gathered.field[m].resize(padded);  // grows only
+      f[m] = gathered.field[m].data();
     }
-    for (std::size_t k = 0; k < nb.size(); ++k) {
+    // Gather (the one scalar pass over the row) over a last pack zeroed first: zero padding.
+    if (padded > 0)
+      for (int m = 0; m < gathered_count; ++m) store_pack(f[m] + padded - kLanes, Pack{});
+    for (std::size_t k = 0; k < n; ++k) {
       const std::uint32_t j = nb[k];
-      const Vec& g = w.gradient[k];
+      for (int m = 0; m < stress_count; ++m) f[m][k] = source.stress[m][j];
+      for (int d = 0; d < Dim; ++d) f[velocity_field + d][k] = source.velocity[d][j];
+      f[density_field][k] = source.density[j];
+    }
+
+    // Interpolation: sum_J V_J Wn_IJ f_J, one partial sum per lane.
+    std::array<Pack, gathered_count> sum{};
+    for (std::size_t k = 0; k < padded; k += kLanes) {
+      const Pack c = load_pack(w.value.data() + k);
+      for (int m = 0; m < gathered_count; ++m) sum[m] += c * load_pack(f[m] + k);
+    }
+    LocalState s;
+    for (int m = 0; m < stress_count; ++m) s.stress[m] = lane_sum(sum[m]);
+    for (int d = 0; d < Dim; ++d) s.velocity[d] = lane_sum(sum[velocity_field + d]);
+    s.density = lane_sum(sum[density_field]);
+
+    // Gradients relative to the interpolated value: sum_J V_J Gn_IJ (f_J - f_I).
+    std::array<Pack, Dim * Dim> velocity_gradient{};  // (i, l) at i * Dim + l
+    std::array<Pack, Dim> divergence{};
+    for (std::size_t k = 0; k < padded; k += kLanes) {
+      std::array<Pack, Dim> g;
+      for (int l = 0; l < Dim; ++l) g[l] = load_pack(w.gradient[l].data() + k);
       for (int i = 0; i < Dim; ++i) {
-        const double dv = source.velocity[i][j] - s.velocity[i];
-        for (int l = 0; l < Dim; ++l) s.velocity_gradient(i, l) += dv * g[l];
+        const Pack dv = load_pack(f[velocity_field + i] + k) - s.velocity[i];
+        for (int l = 0; l < Dim; ++l) velocity_gradient[i * Dim + l] += dv * g[l];
       }
       for (int i = 0; i < Dim; ++i)
         for (int l = 0; l < Dim; ++l) {
           const int m = stress_index<Dim>(i, l);
-          s.stress_divergence[i] += (source.stress[m][j] - s.stress[m]) * g[l];
+          divergence[i] += (load_pack(f[m] + k) - s.stress[m]) * g[l];
         }
     }
+    for (int i = 0; i < Dim; ++i) {
+      for (int l = 0; l < Dim; ++l) s.velocity_gradient(i, l) = lane_sum(velocity_gradient[i * Dim + l]);
+      s.stress_divergence[i] = lane_sum(divergence[i]);
+    }
     return s;
+  }
+  static LocalState evaluate_sse2(const ParticleView<Dim>& source, std::span<const std::uint32_t> nb,
+                                  const StencilWeights<Dim>& w, GatheredSource& gathered) {
+    return evaluate_in_packs(source, nb, w, gathered);
+  }
+  TSPH_TARGET_AVX2 static LocalState evaluate_avx2(const ParticleView<Dim>& source,
+                                                    std::span<const std::uint32_t> nb,
+                                                    const StencilWeights<Dim>& w,
+                                                    GatheredSource& gathered) {
+    return evaluate_in_packs(source, nb, w, gathered);
+  }
+
+  /// Interpolates U at the query point and takes the corrected gradients of the
+  /// velocity and the divergence of the stress, both relative to the interpolated
+  /// value at the query point (DESIGN.md section 2). Same instruction set as
+  /// compute_stencil (simd_path()).
+  static LocalState evaluate(const ParticleView<Dim>& source, std::span<const std::uint32_t> nb,
+                             const StencilWeights<Dim>& w, GatheredSource& gathered) {
+    if (simd_path() == SimdPath::avx2) return evaluate_avx2(source, nb, w, gathered);
+    return evaluate_sse2(source, nb, w, gathered);
   }
 
   /// Full corrected gradient of every stress component, relative to `centre`.
@@ -598,7 +658,7 @@ class TaylorSph {
     for (auto& component : g) component.setZero();
     for (std::size_t k = 0; k < nb.size(); ++k)
       for (int m = 0; m < stress_count; ++m)
-        g[m] += (source.stress[m][nb[k]] - centre[m]) * w.gradient[k];
+        g[m] += (source.stress[m][nb[k]] - centre[m]) * w.gradient_of(k);
     return g;
   }
 
@@ -633,15 +693,16 @@ class TaylorSph {
     const double h = settings_.smoothing_length;
     const double half_dt = 0.5 * dt;
     const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
-    add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
-        target.count, [&](std::size_t q, StencilWeights<Dim>& w, StencilCounts& counts) {
+    add(parallel_for_with_scratch<StepScratch, StencilCounts>(
+        target.count, [&](std::size_t q, StepScratch& scratch, StencilCounts& counts) {
+          StencilWeights<Dim>& w = scratch.weights;
           const auto nb = virtual_from_real_.neighbors(q);
           const StencilStatus status =
               compute_stencil<Dim>(kernel, h, target.position_of(q), source_points,
                                    source.volume, nb, settings_.interpolation, w);
           counts += status;
           if (status.no_neighbors) return;  // isolated: keeps its values (counted)
-          const LocalState s = evaluate(source, nb, w);
+          const LocalState s = evaluate(source, nb, w, scratch.gathered);
           const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress, moving);
           for (int m = 0; m < stress_count; ++m)
             target.stress[m][q] = s.stress[m] + half_dt * rate[m];
@@ -676,8 +737,9 @@ class TaylorSph {
                                  .query(points_of<Dim>(real_));
       }
     }
-    add(parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
-        target.count, [&](std::size_t r, StencilWeights<Dim>& w, StencilCounts& counts) {
+    add(parallel_for_with_scratch<StepScratch, StencilCounts>(
+        target.count, [&](std::size_t r, StepScratch& scratch, StencilCounts& counts) {
+          StencilWeights<Dim>& w = scratch.weights;
           for (int d = 0; d < Dim; ++d) previous_velocity_[d][r] = target.velocity[d][r];
           const auto nb = real_from_virtual_.neighbors(r);
           const StencilStatus status =
@@ -693,7 +755,7 @@ class TaylorSph {
             }
             return;
           }
-          const LocalState s = evaluate(source, nb, w);
+          const LocalState s = evaluate(source, nb, w, scratch.gathered);
           if (const std::int32_t b = boundary_slot_[r]; b >= 0) {
             // Tangential derivatives at n+1/2 for the boundary conditions.
             boundary_half_velocity_gradient_[static_cast<std::size_t>(b)] = s.velocity_gradient;
@@ -701,7 +763,7 @@ class TaylorSph {
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
             Vec centroid = Vec::Zero();  // of the virtual stencil (surface_extrapolation)
             for (std::size_t k = 0; k < nb.size(); ++k) {
-              gradient_sum += w.gradient[k];
+              gradient_sum += w.gradient_of(k);
               centroid += virtual_.position_of(nb[k]);
             }
             boundary_gradient_sum_[static_cast<std::size_t>(b)] = gradient_sum;
@@ -740,7 +802,7 @@ class TaylorSph {
       for (std::size_t k = 0; k < nb.size(); ++k)
         for (int d = 0; d < Dim; ++d)
           grad_v.row(d) += (source.velocity[d][nb[k]] - source.velocity[d][i]) *
-                           w.gradient[k].transpose();
+                           w.gradient_of(k).transpose();
       boundary_stress_[b] = stress_of(real_, i);
       boundary_velocity_[b] = velocity_of(i);
       boundary_density_[b] = real_.density[i];
@@ -978,10 +1040,10 @@ class TaylorSph {
                                    source_points, real_.volume.data(), nb,
                                    settings_.interpolation, w);
           Vec sum = Vec::Zero();
-          for (std::size_t k = 0; k < nb.size(); ++k) sum += w.gradient[k];
+          for (std::size_t k = 0; k < nb.size(); ++k) sum += w.gradient_of(k);
           for (std::size_t k = 0; k < nb.size(); ++k)
             momentum_weight_[first + k] =
-                status.no_neighbors ? Vec(Vec::Zero()) : Vec(w.gradient[k] - w.value[k] * sum);
+                status.no_neighbors ? Vec(Vec::Zero()) : Vec(w.gradient_of(k) - w.value[k] * sum);
         });
     momentum_pairs_.offsets.assign(real_.size() + 1, 0);
     for (std::uint32_t j : virtual_from_real_.indices) ++momentum_pairs_.offsets[j + 1];

@@ -21,6 +21,7 @@
 // is sum_J value[J] f_J and a gradient is sum_J gradient[J] (f_J - f_I).
 #pragma once
 
+#include "kernels/simd.hpp"
 #include "kernels/smoothing_kernels.hpp"
 #include "neighbor/neighbor_list.hpp"
 
@@ -28,6 +29,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <span>
@@ -57,17 +59,34 @@ struct StencilStatus {
 
 /// Per-neighbour weights of one query point, sized to its row; reused between queries
 /// (scratch, one per thread: capacity is kept, so the loops allocate almost nothing).
+/// Structure of arrays padded to a whole number of packs (kernels/simd.hpp) with zero
+/// weights: entries k < size() belong to the row, the rest are 0.
 template <int Dim>
 struct StencilWeights {
-  std::vector<double> value;                   ///< V_J Wn_IJ
-  std::vector<Eigen::Matrix<double, Dim, 1>> gradient;  ///< V_J Gn_IJ
-  std::vector<Eigen::Matrix<double, Dim, 1>> scaled_offset;  ///< (x_J - x_I) / h
+  PackBuffer value;                     ///< V_J Wn_IJ
+  std::array<PackBuffer, Dim> gradient;  ///< component d of V_J Gn_IJ
+  std::array<PackBuffer, Dim> offset;    ///< component d of x_J - x_I (scratch)
+  PackBuffer volume;                     ///< V_J (scratch)
 
-  void resize(std::size_t n) {
-    value.resize(n);
-    gradient.resize(n);
-    scaled_offset.resize(n);
+  std::size_t size() const { return count_; }
+  Eigen::Matrix<double, Dim, 1> gradient_of(std::size_t k) const {
+    Eigen::Matrix<double, Dim, 1> g;
+    for (int d = 0; d < Dim; ++d) g[d] = gradient[d][k];
+    return g;
   }
+  /// Sizes the buffers to at least padded_size(n); they only grow (no zero-fill of a
+  /// row that is shorter than the last one).
+  void resize(std::size_t n) {
+    count_ = n;
+    const std::size_t padded = padded_size(n);
+    if (value.size() >= padded) return;
+    value.resize(padded);
+    volume.resize(padded);
+    for (int d = 0; d < Dim; ++d) gradient[d].resize(padded), offset[d].resize(padded);
+  }
+
+ private:
+  std::size_t count_ = 0;
 };
 
 /// Inverse of a small symmetric positive semi-definite matrix, with `ok` false when it
@@ -106,92 +125,161 @@ Eigen::Matrix<double, N, N> symmetric_pseudo_inverse(const Eigen::Matrix<double,
   return solver.eigenvectors() * inverted.asDiagonal() * solver.eigenvectors().transpose();
 }
 
-/// Computes the interpolation and gradient weights of query point `x_query` over its
-/// neighbour row. `source_volume[J]` is V_J = m_J / rho_J.
+/// The body of compute_stencil, compiled once per instruction set (below).
 template <int Dim, class Kernel>
-StencilStatus compute_stencil(const Kernel& kernel, double h,
-                              const Eigen::Matrix<double, Dim, 1>& x_query,
-                              const PointsView<Dim>& source, const double* source_volume,
-                              std::span<const std::uint32_t> neighbors,
-                              InterpolationKind interpolation, StencilWeights<Dim>& weights) {
-  using Vec = Eigen::Matrix<double, Dim, 1>;
+[[gnu::always_inline]] inline StencilStatus compute_stencil_in_packs(
+    double h, const Eigen::Matrix<double, Dim, 1>& x_query, const PointsView<Dim>& source,
+    const double* source_volume, std::span<const std::uint32_t> neighbors,
+    InterpolationKind interpolation, StencilWeights<Dim>& weights) {
   using Mat = Eigen::Matrix<double, Dim, Dim>;
   using Moments = Eigen::Matrix<double, Dim + 1, Dim + 1>;
+  constexpr int pairs = Dim * (Dim + 1) / 2;  // upper triangle (a <= b)
   StencilStatus status;
   const std::size_t n = neighbors.size();
   weights.resize(n);
+  const std::size_t padded = padded_size(n);
 
-  // Pass 1: kernel values, raw gradients and the moment sums.
-  // The moment sums are accumulated as scalars (upper triangles), which the compiler
-  // keeps in registers; the matrices are filled after the loop.
-  Mat correction = Mat::Zero();  // sum_J V_J grad_I W_IJ (x) (x_J - x_I)
-  double kernel_sum = 0.0;       // sum_J V_J W_IJ
-  Vec first_moment = Vec::Zero();  // sum_J V_J W_IJ d_J, d_J = (x_J - x_I) / h
-  Mat second_moment = Mat::Zero();  // sum_J V_J W_IJ d_J d_J^T (upper triangle)
+  // Gather (the one scalar pass): offsets x_J - x_I and volumes into contiguous buffers,
+  // over a last pack zeroed first, so the padding is zero (volume 0: zero weight, zero
+  // gradient, zero moments).
+  if (padded > 0) {
+    for (int d = 0; d < Dim; ++d) store_pack(weights.offset[d].data() + padded - kLanes, Pack{});
+    store_pack(weights.volume.data() + padded - kLanes, Pack{});
+  }
   for (std::size_t k = 0; k < n; ++k) {
     const std::uint32_t j = neighbors[k];
-    Vec offset;  // x_J - x_I
-    for (int d = 0; d < Dim; ++d) offset[d] = source.coordinate[d][j] - x_query[d];
-    const double r = offset.norm();
-    const double volume = source_volume[j];
-    const double w = volume * kernel.value(r, h);
-    // grad_I W(x_I - x_J) = W'(r) (x_I - x_J) / r
-    const Vec grad = r > 0.0 ? Vec((-volume * kernel.derivative(r, h) / r) * offset) : Vec::Zero();
-    const Vec scaled = offset / h;
-    weights.value[k] = w;
-    weights.gradient[k] = grad;
-    weights.scaled_offset[k] = scaled;
-    for (int a = 0; a < Dim; ++a)
-      for (int b = 0; b < Dim; ++b) correction(a, b) += grad[a] * offset[b];
+    for (int d = 0; d < Dim; ++d) weights.offset[d][k] = source.coordinate[d][j] - x_query[d];
+    weights.volume[k] = source_volume[j];
+  }
+
+  // Pass 1, kLanes pairs at a time: kernel values, raw gradients
+  // grad_I W(x_I - x_J) = -(W'(r) / r) (x_J - x_I), and the moment sums, one partial
+  // sum per lane. With p_ab = o_a o_b (o = x_J - x_I) both matrices are symmetric:
+  //   correction C = sum_J V_J grad_I W_IJ (x) o_J = sum_J s_J p_J, s_J = -V_J W'/r,
+  //   moments: sum_J V_J W_IJ [1; o_J] [1; o_J]^T (scaled by 1/h after the loop).
+  const double inverse_h = 1.0 / h;
+  const double value_factor = Kernel::value_factor(h);
+  const double slope_factor = Kernel::slope_factor(h);
+  Pack kernel_sum{};
+  std::array<Pack, Dim> first{};
+  std::array<Pack, pairs> second{}, correction{};
+  for (std::size_t k = 0; k < padded; k += kLanes) {
+    std::array<Pack, Dim> o;
+    for (int d = 0; d < Dim; ++d) o[d] = load_pack(weights.offset[d].data() + k);
+    Pack r2 = o[0] * o[0];
+    for (int d = 1; d < Dim; ++d) r2 += o[d] * o[d];
+    const Pack q = square_root(r2) * inverse_h;
+    const Pack volume = load_pack(weights.volume.data() + k);
+    const Pack w = volume * (value_factor * Kernel::shape(q));
+    const Pack s = volume * (-slope_factor * Kernel::slope_over_q(q));
+    store_pack(weights.value.data() + k, w);
+    for (int d = 0; d < Dim; ++d) store_pack(weights.gradient[d].data() + k, s * o[d]);
     kernel_sum += w;
+    int ab = 0;
     for (int a = 0; a < Dim; ++a) {
-      first_moment[a] += w * scaled[a];
-      for (int b = a; b < Dim; ++b) second_moment(a, b) += w * scaled[a] * scaled[b];
+      first[a] += w * o[a];
+      for (int b = a; b < Dim; ++b, ++ab) {
+        const Pack p = o[a] * o[b];
+        second[ab] += w * p;
+        correction[ab] += s * p;
+      }
     }
   }
-  // [1; d] [1; d]^T weighted by V_J W_IJ.
-  Moments moments;
-  moments(0, 0) = kernel_sum;
+  Moments moments;  // [1; d] [1; d]^T weighted by V_J W_IJ, d = o / h
+  Mat correction_matrix;
+  moments(0, 0) = lane_sum(kernel_sum);
+  int ab = 0;
   for (int a = 0; a < Dim; ++a) {
-    moments(0, a + 1) = moments(a + 1, 0) = first_moment[a];
-    for (int b = a; b < Dim; ++b)
-      moments(a + 1, b + 1) = moments(b + 1, a + 1) = second_moment(a, b);
+    moments(0, a + 1) = moments(a + 1, 0) = lane_sum(first[a]) * inverse_h;
+    for (int b = a; b < Dim; ++b, ++ab) {
+      moments(a + 1, b + 1) = moments(b + 1, a + 1) = lane_sum(second[ab]) * (inverse_h * inverse_h);
+      correction_matrix(a, b) = correction_matrix(b, a) = lane_sum(correction[ab]);
+    }
   }
 
   // Interpolation weights.
-  if (!(kernel_sum > 0.0)) {
+  const double kernel_total = moments(0, 0);
+  if (!(kernel_total > 0.0)) {
     status.no_neighbors = true;
-    for (std::size_t k = 0; k < n; ++k) weights.value[k] = 0.0;
+    std::fill(weights.value.begin(), weights.value.begin() + static_cast<std::ptrdiff_t>(padded), 0.0);
   } else {
     bool linear_ok = false;
     if (interpolation == InterpolationKind::linear) {
       const Moments inverse = checked_inverse<Dim + 1>(moments, linear_ok);
       if (linear_ok) {
-        // Coefficients (a, b) with moments * (a, b) = e_0: reproduces 1 and x.
-        const Eigen::Matrix<double, Dim + 1, 1> coefficients = inverse.col(0);
-        const double a = coefficients[0];
-        const Vec b = coefficients.template tail<Dim>();
-        for (std::size_t k = 0; k < n; ++k)
-          weights.value[k] *= a + b.dot(weights.scaled_offset[k]);
+        // Coefficients (a, b) with moments * (a, b) = e_0: reproduces 1 and x;
+        // W~_IJ = W_IJ (a + b . o_J / h).
+        const double a = inverse(0, 0);
+        std::array<double, Dim> b_over_h;
+        for (int d = 0; d < Dim; ++d) b_over_h[d] = inverse(d + 1, 0) * inverse_h;
+        for (std::size_t k = 0; k < padded; k += kLanes) {
+          Pack factor = broadcast(a);
+          for (int d = 0; d < Dim; ++d) factor += b_over_h[d] * load_pack(weights.offset[d].data() + k);
+          store_pack(weights.value.data() + k, load_pack(weights.value.data() + k) * factor);
+        }
       } else {
         status.interpolation_fallback = true;
       }
     }
     if (!linear_ok) {
-      const double inverse_sum = 1.0 / kernel_sum;
-      for (std::size_t k = 0; k < n; ++k) weights.value[k] *= inverse_sum;
+      const double inverse_sum = 1.0 / kernel_total;
+      for (std::size_t k = 0; k < padded; k += kLanes)
+        store_pack(weights.value.data() + k, load_pack(weights.value.data() + k) * inverse_sum);
     }
   }
 
   // Gradient weights: L_I grad_I W_IJ.
   bool inverse_ok = false;
-  Mat inverse = checked_inverse<Dim>(correction, inverse_ok);
+  Mat inverse = checked_inverse<Dim>(correction_matrix, inverse_ok);
   if (!inverse_ok) {
-    inverse = symmetric_pseudo_inverse<Dim>(correction);
+    inverse = symmetric_pseudo_inverse<Dim>(correction_matrix);
     status.gradient_fallback = n > 0;
   }
-  for (std::size_t k = 0; k < n; ++k) weights.gradient[k] = inverse * weights.gradient[k];
+  for (std::size_t k = 0; k < padded; k += kLanes) {
+    std::array<Pack, Dim> raw;
+    for (int d = 0; d < Dim; ++d) raw[d] = load_pack(weights.gradient[d].data() + k);
+    for (int a = 0; a < Dim; ++a) {
+      Pack g = inverse(a, 0) * raw[0];
+      for (int b = 1; b < Dim; ++b) g += inverse(a, b) * raw[b];
+      store_pack(weights.gradient[a].data() + k, g);
+    }
+  }
   return status;
+}
+
+template <int Dim, class Kernel>
+StencilStatus compute_stencil_sse2(double h, const Eigen::Matrix<double, Dim, 1>& x_query,
+                                   const PointsView<Dim>& source, const double* source_volume,
+                                   std::span<const std::uint32_t> neighbors,
+                                   InterpolationKind interpolation, StencilWeights<Dim>& weights) {
+  return compute_stencil_in_packs<Dim, Kernel>(h, x_query, source, source_volume, neighbors,
+                                               interpolation, weights);
+}
+
+template <int Dim, class Kernel>
+TSPH_TARGET_AVX2 StencilStatus compute_stencil_avx2(
+    double h, const Eigen::Matrix<double, Dim, 1>& x_query, const PointsView<Dim>& source,
+    const double* source_volume, std::span<const std::uint32_t> neighbors,
+    InterpolationKind interpolation, StencilWeights<Dim>& weights) {
+  return compute_stencil_in_packs<Dim, Kernel>(h, x_query, source, source_volume, neighbors,
+                                               interpolation, weights);
+}
+
+/// Computes the interpolation and gradient weights of query point `x_query` over its
+/// neighbour row. `source_volume[J]` is V_J = m_J / rho_J. Runs the AVX2 build where the
+/// CPU has it (simd_path(); bitwise the same results as the SSE2 build), unless `path`
+/// names one.
+template <int Dim, class Kernel>
+StencilStatus compute_stencil(const Kernel&, double h, const Eigen::Matrix<double, Dim, 1>& x_query,
+                              const PointsView<Dim>& source, const double* source_volume,
+                              std::span<const std::uint32_t> neighbors,
+                              InterpolationKind interpolation, StencilWeights<Dim>& weights,
+                              SimdPath path = simd_path()) {
+  if (path == SimdPath::avx2)
+    return compute_stencil_avx2<Dim, Kernel>(h, x_query, source, source_volume, neighbors,
+                                             interpolation, weights);
+  return compute_stencil_sse2<Dim, Kernel>(h, x_query, source, source_volume, neighbors,
+                                           interpolation, weights);
 }
 
 }  // namespace tsph

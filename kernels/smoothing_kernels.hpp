@@ -5,12 +5,22 @@
 // with respect to the first point, grad_I W(x_I - x_J), is `kernel_gradient` below.
 // Normalisation constants are constexpr per dimension; tests/test_kernels.cpp checks
 // that each integrates to one.
+//
+// For the packed stencil loops (kernels/corrected_operators.hpp) every kernel also has
+// branch-free `shape(q)` and `slope_over_q(q)` for double and Pack (kernels/simd.hpp):
+//   W(r, h) = value_factor(h) shape(q),  (dW/dr) / r = slope_factor(h) slope_over_q(q),
+// with q = r / h; pieces are chosen by selects, and slope_over_q is finite at q = 0 (the
+// division by r of the gradient is folded into the polynomial), so no lane divides by
+// zero. They agree with value() and derivative() to round-off (tests/test_kernels.cpp).
 #pragma once
+
+#include "kernels/simd.hpp"
 
 #include <Eigen/Core>
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -27,9 +37,16 @@ constexpr double power_of_h(double h) {
   else return h * h * h;
 }
 
+/// sigma / h^Dim and sigma / h^(Dim + 2), the factors of shape() and slope_over_q().
+template <int Dim, class Kernel>
+struct KernelFactors {
+  static double value_factor(double h) { return Kernel::sigma / power_of_h<Dim>(h); }
+  static double slope_factor(double h) { return Kernel::sigma / (power_of_h<Dim>(h) * h * h); }
+};
+
 /// Cubic B-spline (Monaghan & Lattanzio 1985), q = r/h in [0, 2].
 template <int Dim>
-struct CubicSpline {
+struct CubicSpline : KernelFactors<Dim, CubicSpline<Dim>> {
   static_assert(Dim >= 1 && Dim <= 3, "CubicSpline: Dim must be 1, 2 or 3");
   static constexpr std::string_view name = "cubic_spline";
   static constexpr double sigma = Dim == 1   ? 2.0 / 3.0
@@ -56,12 +73,23 @@ struct CubicSpline {
     }
     return 0.0;
   }
+  template <class T>
+  static T shape(T q) {
+    const T t = max_of(2.0 - q, 0.0);
+    return select(q < 1.0, 1.0 - 1.5 * q * q + 0.75 * q * q * q, 0.25 * t * t * t);
+  }
+  /// W'(q) / q: -3 + 2.25 q inside q < 1, -0.75 (2 - q)^2 / q outside (q >= 1 there).
+  template <class T>
+  static T slope_over_q(T q) {
+    const T t = max_of(2.0 - q, 0.0);
+    return select(q < 1.0, -3.0 + 2.25 * q, -0.75 * t * t / max_of(q, 1.0));
+  }
 };
 
 /// Wendland C2 (Wendland 1995; Dehnen & Aly 2012), q = r/h in [0, 2].
 /// 1D: (1 - q/2)^3 (1.5 q + 1); 2D and 3D: (1 - q/2)^4 (2 q + 1).
 template <int Dim>
-struct WendlandC2 {
+struct WendlandC2 : KernelFactors<Dim, WendlandC2<Dim>> {
   static_assert(Dim >= 1 && Dim <= 3, "WendlandC2: Dim must be 1, 2 or 3");
   static constexpr std::string_view name = "wendland_c2";
   static constexpr double sigma = Dim == 1   ? 5.0 / 8.0
@@ -86,12 +114,24 @@ struct WendlandC2 {
     if constexpr (Dim == 1) return c * (-3.0 * q * t * t);
     else return c * (-5.0 * q * t * t * t);
   }
+  template <class T>
+  static T shape(T q) {
+    const T t = max_of(1.0 - 0.5 * q, 0.0);
+    if constexpr (Dim == 1) return t * t * t * (1.5 * q + 1.0);
+    else return t * t * t * t * (2.0 * q + 1.0);
+  }
+  template <class T>
+  static T slope_over_q(T q) {
+    const T t = max_of(1.0 - 0.5 * q, 0.0);
+    if constexpr (Dim == 1) return -3.0 * t * t;
+    else return -5.0 * t * t * t;
+  }
 };
 
 /// Quintic spline (Morris 1996) rescaled from support 3h to support 2h: with s = 1.5 q,
 /// W = sigma / h^d [(3 - s)^5 - 6 (2 - s)^5 + 15 (1 - s)^5] (terms taken where positive).
 template <int Dim>
-struct QuinticSpline {
+struct QuinticSpline : KernelFactors<Dim, QuinticSpline<Dim>> {
   static_assert(Dim >= 1 && Dim <= 3, "QuinticSpline: Dim must be 1, 2 or 3");
   static constexpr std::string_view name = "quintic_spline";
   // Morris' constants per h'^d with h' = h / 1.5, hence the factor 1.5^d.
@@ -118,9 +158,27 @@ struct QuinticSpline {
     return c * dw;
   }
 
+  template <class T>
+  static T shape(T q) {
+    const T s = 1.5 * q;
+    const T a = max_of(3.0 - s, 0.0), b = max_of(2.0 - s, 0.0), c = max_of(1.0 - s, 0.0);
+    return pow5(a) - 6.0 * pow5(b) + 15.0 * pow5(c);
+  }
+  /// W'(q) / q = 2.25 [-5 (3 - s)^4 + 30 (2 - s)^4 - 75 (1 - s)^4] / s; the bracket is
+  /// exactly 0 at s = 0 (-405 + 480 - 75), so the division by max(s, DBL_MIN) gives 0 there.
+  template <class T>
+  static T slope_over_q(T q) {
+    const T s = 1.5 * q;
+    const T a = max_of(3.0 - s, 0.0), b = max_of(2.0 - s, 0.0), c = max_of(1.0 - s, 0.0);
+    return 2.25 * (-5.0 * pow4(a) + 30.0 * pow4(b) - 75.0 * pow4(c)) /
+           max_of(s, std::numeric_limits<double>::min());
+  }
+
  private:
-  static double pow4(double x) { return (x * x) * (x * x); }
-  static double pow5(double x) { return pow4(x) * x; }
+  template <class T>
+  static T pow4(T x) { return (x * x) * (x * x); }
+  template <class T>
+  static T pow5(T x) { return pow4(x) * x; }
 };
 
 /// grad_I W(x_I - x_J) for the separation `x_ij = x_I - x_J` (DESIGN.md section 2).

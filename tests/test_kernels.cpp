@@ -14,6 +14,7 @@
 #include <random>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 namespace tsph {
 namespace {
@@ -109,6 +110,41 @@ TYPED_TEST(KernelTest, IntegratesToOne) {
   }
 }
 
+
+// The branch-free forms of the packed stencil loop (kernels/simd.hpp) are the kernel:
+// value_factor(h) shape(q) = W and slope_factor(h) slope_over_q(q) r = dW/dr to
+// round-off, on either side of every knot, at q = 0 (slope finite) and beyond 2h (zero);
+// the Pack versions equal the double versions lane by lane, bitwise.
+TYPED_TEST(KernelTest, ShapeAndSlopeOverQMatchValueAndDerivative) {
+  const TypeParam kernel;
+  for (double h : kSmoothingLengths) {
+    std::vector<double> qs = {0.0, 1e-9, 2.0, 2.0 + 1e-12, 2.5, 7.0};
+    for (double knot : kKnots)
+      for (double delta : {-1e-9, 1e-9}) qs.push_back(std::max(0.0, knot + delta));
+    for (int k = 1; k < 400; ++k) qs.push_back(k * 2.2 / 400.0);
+    const double peak = kernel.value(0.0, h);
+    const double slope_scale = std::abs(kernel.derivative(h, h));
+    for (double q : qs) {
+      SCOPED_TRACE("h = " + std::to_string(h) + ", q = " + std::to_string(q));
+      const double r = q * h;
+      const double value = TypeParam::value_factor(h) * TypeParam::shape(q);
+      const double slope_over_r = TypeParam::slope_factor(h) * TypeParam::slope_over_q(q);
+      EXPECT_TRUE(std::isfinite(value) && std::isfinite(slope_over_r));
+      EXPECT_NEAR(value, kernel.value(r, h), 1e-14 * peak);
+      EXPECT_NEAR(slope_over_r * r, kernel.derivative(r, h), 1e-13 * slope_scale);
+      if (q >= 2.0) {
+        EXPECT_EQ(value, 0.0);
+        EXPECT_EQ(slope_over_r, 0.0);
+      }
+      const Pack packed_q = {q, 0.5 * q, q + 0.25, 0.0};
+      const Pack shape = TypeParam::shape(packed_q), slope = TypeParam::slope_over_q(packed_q);
+      for (std::size_t l = 0; l < kLanes; ++l) {
+        EXPECT_EQ(shape[l], TypeParam::shape(packed_q[l]));
+        EXPECT_EQ(slope[l], TypeParam::slope_over_q(packed_q[l]));
+      }
+    }
+  }
+}
 
 // Support radius is 2h: W and dW/dr vanish beyond it, and W reaches zero continuously
 // (no jump at the edge).

@@ -1,0 +1,108 @@
+// Packs of doubles for the stencil and evaluation loops (bench/RESULTS.md, "SIMD pass"),
+// and the choice between the SSE2 baseline and an AVX2 build of those loops at run time.
+//
+// A `Pack` is kLanes = 4 doubles (GCC/clang vector extension): arithmetic and comparisons
+// act lane by lane, compiled to two SSE2 instructions per operation in the baseline build
+// and to one AVX2 instruction inside a function compiled with `[[gnu::target("avx2")]]`.
+// The AVX2 build does not enable FMA, so both compile to the same roundings lane by lane
+// and the two paths give bitwise the same results (tests/test_kernels.cpp checks it on
+// stencils); lanes are summed in one fixed order, so neither the thread count nor the
+// path changes a result.
+//
+// Loops over a neighbour row work on buffers padded to a multiple of kLanes with zeros
+// (volume 0, offset 0, weight 0), whose contributions to every sum are exactly zero.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <new>
+#include <string_view>
+#include <vector>
+
+namespace tsph {
+
+inline constexpr std::size_t kLanes = 4;
+using Pack = double __attribute__((vector_size(kLanes * sizeof(double))));
+using PackMask = decltype(Pack{} < Pack{});
+
+/// n rounded up to a whole number of packs.
+constexpr std::size_t padded_size(std::size_t n) { return (n + kLanes - 1) / kLanes * kLanes; }
+
+[[gnu::always_inline]] inline Pack load_pack(const double* p) {
+  Pack v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+[[gnu::always_inline]] inline void store_pack(double* p, Pack v) { std::memcpy(p, &v, sizeof v); }
+[[gnu::always_inline]] inline Pack broadcast(double x) { return Pack{} + x; }
+/// Sum of the lanes in a fixed order: (l0 + l1) + (l2 + l3).
+[[gnu::always_inline]] inline double lane_sum(Pack v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+
+// Branch-free helpers written once for double and Pack, so that a kernel's shape
+// function serves the scalar reference and the packed loop alike.
+[[gnu::always_inline]] inline double select(bool condition, double a, double b) {
+  return condition ? a : b;
+}
+[[gnu::always_inline]] inline Pack select(PackMask condition, Pack a, Pack b) {
+  return condition ? a : b;
+}
+[[gnu::always_inline]] inline double max_of(double a, double b) { return a > b ? a : b; }
+[[gnu::always_inline]] inline Pack max_of(Pack a, double b) {
+  const Pack bb = broadcast(b);
+  return a > bb ? a : bb;
+}
+[[gnu::always_inline]] inline double square_root(double x) { return std::sqrt(x); }
+/// Lane by lane (sqrtpd with -fno-math-errno, which CMakeLists.txt sets).
+[[gnu::always_inline]] inline Pack square_root(Pack x) {
+  Pack r;
+  for (std::size_t l = 0; l < kLanes; ++l) r[l] = std::sqrt(x[l]);
+  return r;
+}
+
+/// Marks the AVX2 build of a packed loop (x86-64 only; elsewhere it is the baseline).
+#if defined(__x86_64__) || defined(__i386__)
+#define TSPH_TARGET_AVX2 [[gnu::target("avx2")]]
+#else
+#define TSPH_TARGET_AVX2
+#endif
+
+/// The instruction set the packed loops run with.
+enum class SimdPath { sse2, avx2 };
+
+inline std::string_view to_string(SimdPath path) { return path == SimdPath::avx2 ? "avx2" : "sse2"; }
+
+/// AVX2 where the CPU has it, unless the environment variable TSPH_SIMD=sse2 asks for the
+/// baseline (to measure one against the other on the same binary). Decided once.
+inline SimdPath simd_path() {
+  static const SimdPath path = [] {
+    const char* forced = std::getenv("TSPH_SIMD");
+    if (forced != nullptr && std::string_view(forced) == "sse2") return SimdPath::sse2;
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx2")) return SimdPath::avx2;
+#endif
+    return SimdPath::sse2;
+  }();
+  return path;
+}
+
+/// std::vector storage aligned to a cache line, for the packed buffers.
+template <class T>
+struct CacheAlignedAllocator {
+  using value_type = T;
+  static constexpr std::align_val_t alignment{64};
+  CacheAlignedAllocator() = default;
+  template <class U>
+  CacheAlignedAllocator(const CacheAlignedAllocator<U>&) {}
+  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), alignment)); }
+  void deallocate(T* p, std::size_t) { ::operator delete(p, alignment); }
+  template <class U>
+  bool operator==(const CacheAlignedAllocator<U>&) const { return true; }
+};
+
+using PackBuffer = std::vector<double, CacheAlignedAllocator<double>>;
+
+}  // namespace tsph
