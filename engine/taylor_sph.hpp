@@ -1329,15 +1329,15 @@ class TaylorSph {
     const double half_skin = 0.5 * skin_distance();
     const double limit = half_skin * half_skin;
     double largest = 0.0;
-    for (auto [set, reference] : {std::pair{&real_, &real_reference_}, std::pair{&virtual_, &virtual_reference_}}) {
+    auto check = [&largest](const ParticleSet<Dim>& set, const std::array<std::vector<double>, Dim>& reference) {
       std::vector<double> block_largest(static_cast<std::size_t>(std::max(1, thread_count())), 0.0);
       const std::size_t blocks =
-          parallel_blocks(set->size(), [&](std::size_t b, std::size_t begin, std::size_t end) {
+          parallel_blocks(set.size(), [&](std::size_t b, std::size_t begin, std::size_t end) {
             double m = 0.0;
             for (std::size_t i = begin; i < end; ++i) {
               double d2 = 0.0;
               for (int d = 0; d < Dim; ++d) {
-                const double delta = set->position[d][i] - (*reference)[d][i];
+                const double delta = set.position[d][i] - reference[d][i];
                 d2 += delta * delta;
               }
               m = d2 <= m ? m : d2;  // NaN propagates: a non-finite position counts as moved
@@ -1345,7 +1345,9 @@ class TaylorSph {
             block_largest[b] = m;
           });
       for (std::size_t b = 0; b < blocks; ++b) largest = block_largest[b] <= largest ? largest : block_largest[b];
-    }
+    };
+    check(real_, real_reference_);
+    check(virtual_, virtual_reference_);
     largest_skin_displacement_ = std::sqrt(largest);
     return !(largest <= limit);
   }
@@ -1465,12 +1467,14 @@ class TaylorSph {
               ? transpose(virtual_from_real_, real_.size())
               : NeighborSearcher<Dim>(settings_.neighbor_search, virtual_points, radius).query(real_points);
     if (skin) {
-      for (auto [set, reference] : {std::pair{&real_, &real_reference_}, std::pair{&virtual_, &virtual_reference_}}) {
-        for (auto& r : *reference) r.resize(set->size());
-        parallel_for(set->size(), [&](std::size_t i) {
-          for (int d = 0; d < Dim; ++d) (*reference)[d][i] = set->position[d][i];
+      auto record = [](const ParticleSet<Dim>& set, std::array<std::vector<double>, Dim>& reference) {
+        for (auto& r : reference) r.resize(set.size());
+        parallel_for(set.size(), [&](std::size_t i) {
+          for (int d = 0; d < Dim; ++d) reference[d][i] = set.position[d][i];
         });
-      }
+      };
+      record(real_, real_reference_);
+      record(virtual_, virtual_reference_);
     }
     ++counters_.neighbor_builds;
   }
