@@ -18,8 +18,9 @@
 //     list);
 //   * with a Verlet skin s (SolverSettings::neighbor_skin, a fraction of 2h), both
 //     half-step lists at once, each of the radius (1 + s) 2h ((1 + s)^Dim times the
-//     pairs), and the positions of both sets at the last search (2 Dim doubles); the
-//     cell list is released before the second list is transposed from the first.
+//     pairs) (the displacements since the search are bounded by a scalar per set, no
+//     stored positions); the cell list is released before the second list is
+//     transposed from the first.
 #pragma once
 
 #include "engine/particle_set.hpp"
@@ -51,10 +52,7 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
   const double previous_velocity = 8.0 * Dim;
   const double boundary_offsets = 8.0;
   const double cell_list = 8.0 + 8.0 * Dim;
-  if (skin > 0.0) {
-    const double reference_positions = 2.0 * 8.0 * Dim;
-    return 2.0 * set + previous_velocity + 2.0 * list + reference_positions + boundary_offsets;
-  }
+  if (skin > 0.0) return 2.0 * set + previous_velocity + 2.0 * list + boundary_offsets;
   const double lists = transposed_lists ? 2.0 * list : list + cell_list;
   return 2.0 * set + previous_velocity + lists + boundary_offsets;
 }

@@ -145,10 +145,11 @@ struct SolverSettings {
   /// radius 2h, in [0, 1]. 0 (the default): the lists are searched at every use (the
   /// full step's list at the midpoint configuration, the others at x^n). s > 0: all
   /// lists are searched with the radius (1 + s) 2h, kept across steps (the full step's
-  /// is the transpose of the half step's), and searched again only when some particle
-  /// of either set has moved more than s h (half the skin) from where it was at the
-  /// last search, checked at every configuration at which lists are used (x^n, and the
-  /// midpoint of move_to_midpoint). Pairs beyond 2h have kernel weights exactly 0 and
+  /// is the transpose of the half step's), and searched again only when a pair may have
+  /// come closer by more than the skin s 2h since the last search: a bound on each set's
+  /// path length since then (the sum over moves of the largest dt/2 |v|, no stored
+  /// positions), checked at every configuration at which lists are used (x^n, and the
+  /// midpoint of move_to_midpoint; lists_outdated). Pairs beyond 2h have kernel weights exactly 0 and
   /// every other use of a row is filtered by distance (within_support), so the run is
   /// bitwise the run without skin (tested); with hourglass_stiffness,
   /// hourglass_coefficient or surface_extrapolation the run without skin uses lists of
@@ -379,7 +380,7 @@ class TaylorSph {
       if (settings_.conservative_momentum) store_momentum_weights(kernel);
       if (settings_.kinematics == Kinematics::updated_lagrangian) {
         move_to_midpoint(dt);
-        if (skin_distance() > 0.0 && lists_outdated()) search_lists();  // lists used at the midpoint
+        if (skin_distance() > 0.0 && lists_outdated(dt)) search_lists();  // lists used at the midpoint
       }
       full_step(kernel, dt);
       apply_boundary_conditions(dt, time_ + dt);
@@ -390,7 +391,7 @@ class TaylorSph {
     check_stability(dt);  // a diverged state is reported before it moves any particle
     move(dt);
     if (settings_.kinematics == Kinematics::updated_lagrangian) {
-      if (skin_distance() > 0.0 && !lists_outdated()) {
+      if (skin_distance() > 0.0 && !lists_outdated(dt)) {
         compute_boundary_normals();  // the lists still hold every pair within 2h at x^{n+1}
       } else {
         rebuild_neighbors();
@@ -1315,41 +1316,47 @@ class TaylorSph {
     return squared_distance<Dim>(a, i, b, j) <= radius * radius;
   }
 
-  /// Verlet skin (SolverSettings::neighbor_skin): whether some particle of either set
-  /// has moved more than half the skin s since the last search. If none has, every pair
+  /// Verlet skin (SolverSettings::neighbor_skin): whether the lists may miss a pair
+  /// within 2h, from bounds on how far the particles have moved since the last search,
+  /// without storing the positions of that search. Each call first adds the move just
+  /// made to the path bound of each set: both moves of a step (move_to_midpoint, move)
+  /// displace every particle by dt/2 times the velocity it holds after the move, so the
+  /// largest dt/2 |v| over the set bounds that move's displacements. A particle's net
+  /// displacement since the search is at most its path length, at most its set's bound
+  /// b (real_path_bound_, virtual_path_bound_). A pair (i, j) changes its distance by at
+  /// most d_i + d_j, so by at most b_real + b_virtual for the virtual -> real rows and
+  /// 2 b_real for the real -> real (boundary) rows. While both are <= s, every pair
   /// within 2h now was within 2h + s at the search (triangle inequality:
-  /// |x_i - x_j| >= |x_i^0 - x_j^0| - |x_i - x_i^0| - |x_j - x_j^0| > (2h + s) - s/2 - s/2
-  /// for a pair not in the list), so the lists are complete. Called at every
-  /// configuration where lists are used: x^n (end of the previous step) and the midpoint
-  /// (move_to_midpoint). One pass over both sets, a maximum per block of threads
-  /// (parallel_blocks), combined afterwards: no atomics, the same answer on any number
-  /// of threads. A non-finite position counts as moved (the search then reports it).
-  bool lists_outdated() {
+  /// |x_i - x_j| >= |x_i^0 - x_j^0| - d_i - d_j > (2h + s) - s for a pair not in the
+  /// list), so the lists are complete. Called at every configuration where lists are
+  /// used, right after the move that reached it: x^n (end of the previous step) and the
+  /// midpoint (move_to_midpoint). One pass over the velocities of both sets, a maximum
+  /// per block of threads (parallel_blocks), combined afterwards: no atomics, the same
+  /// answer on any number of threads. A non-finite velocity makes the bound non-finite
+  /// and counts as moved (the search then reports it).
+  bool lists_outdated(double dt) {
     ++counters_.skin_checks;
-    const double half_skin = 0.5 * skin_distance();
-    const double limit = half_skin * half_skin;
-    double largest = 0.0;
-    auto check = [&largest](const ParticleSet<Dim>& set, const std::array<std::vector<double>, Dim>& reference) {
+    const double half_dt = 0.5 * dt;
+    auto largest_speed = [](const ParticleSet<Dim>& set) {
       std::vector<double> block_largest(static_cast<std::size_t>(std::max(1, thread_count())), 0.0);
       const std::size_t blocks =
           parallel_blocks(set.size(), [&](std::size_t b, std::size_t begin, std::size_t end) {
             double m = 0.0;
             for (std::size_t i = begin; i < end; ++i) {
-              double d2 = 0.0;
-              for (int d = 0; d < Dim; ++d) {
-                const double delta = set.position[d][i] - reference[d][i];
-                d2 += delta * delta;
-              }
-              m = d2 <= m ? m : d2;  // NaN propagates: a non-finite position counts as moved
+              double v2 = 0.0;
+              for (int d = 0; d < Dim; ++d) v2 += set.velocity[d][i] * set.velocity[d][i];
+              m = v2 <= m ? m : v2;  // NaN propagates: a non-finite velocity counts as moved
             }
             block_largest[b] = m;
           });
+      double largest = 0.0;
       for (std::size_t b = 0; b < blocks; ++b) largest = block_largest[b] <= largest ? largest : block_largest[b];
+      return std::sqrt(largest);
     };
-    check(real_, real_reference_);
-    check(virtual_, virtual_reference_);
-    largest_skin_displacement_ = std::sqrt(largest);
-    return !(largest <= limit);
+    real_path_bound_ += half_dt * largest_speed(real_);
+    virtual_path_bound_ += half_dt * largest_speed(virtual_);
+    const double pair_bound = real_path_bound_ + std::max(real_path_bound_, virtual_path_bound_);
+    return !(pair_bound <= skin_distance() && std::isfinite(pair_bound));
   }
 
   /// Neighbour lists (build_lists), and the particle sets sorted when their order has
@@ -1443,7 +1450,7 @@ class TaylorSph {
 
   /// The searches of build_lists, with radius list_radius(): both half-step lists
   /// (without skin in updated Lagrangian the full step's is left to the full step), the
-  /// boundary rows of the real set, and with a skin the positions they were built at.
+  /// boundary rows of the real set, and with a skin the path bounds reset.
   void search_lists() {
     const double radius = list_radius();
     const bool skin = skin_distance() > 0.0;
@@ -1466,16 +1473,8 @@ class TaylorSph {
           settings_.transpose_lists || skin
               ? transpose(virtual_from_real_, real_.size())
               : NeighborSearcher<Dim>(settings_.neighbor_search, virtual_points, radius).query(real_points);
-    if (skin) {
-      auto record = [](const ParticleSet<Dim>& set, std::array<std::vector<double>, Dim>& reference) {
-        for (auto& r : reference) r.resize(set.size());
-        parallel_for(set.size(), [&](std::size_t i) {
-          for (int d = 0; d < Dim; ++d) reference[d][i] = set.position[d][i];
-        });
-      };
-      record(real_, real_reference_);
-      record(virtual_, virtual_reference_);
-    }
+    real_path_bound_ = 0.0;  // the lists hold the pairs within list_radius() from here on
+    virtual_path_bound_ = 0.0;
     ++counters_.neighbor_builds;
   }
 
@@ -1572,9 +1571,9 @@ class TaylorSph {
   NeighborList virtual_from_real_;  ///< rows: virtual particles; entries: real
   NeighborList real_from_virtual_;  ///< rows: real particles; entries: virtual
   NeighborList real_from_real_;     ///< rows: real particles (only boundary ones filled); entries: real, self excluded
-  /// Positions of both sets at the last search (only with a skin: lists_outdated).
-  std::array<std::vector<double>, Dim> real_reference_, virtual_reference_;
-  double largest_skin_displacement_ = 0.0;  ///< at the last lists_outdated check
+  /// Bounds on the path length of any particle of each set since the last search
+  /// (only with a skin: lists_outdated).
+  double real_path_bound_ = 0.0, virtual_path_bound_ = 0.0;
   bool surface_decided_ = false;  ///< boundary_on_surface_ set (at the first build)
 
   std::vector<std::uint32_t> boundary_particles_;  ///< real indices with a condition
