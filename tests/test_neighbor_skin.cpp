@@ -1,6 +1,6 @@
 // The Verlet skin of the updated-Lagrangian neighbour lists
-// (SolverSettings::neighbor_skin): lists searched with 2h + skin and kept until some
-// particle has moved half the skin. Tested: (1) randomised, after every step of a
+// (SolverSettings::neighbor_skin): lists searched with 2h + skin and kept until the
+// path-length bounds of the sets say a pair may have closed by the skin. Tested: (1) randomised, after every step of a
 // fast-moving run the kept lists hold every pair within 2h of the brute-force search at
 // the current positions, and they are searched again only now and then; (2) the run
 // with a skin is bitwise the run without (positions, velocities, stresses), on 1 and 2
