@@ -7,6 +7,8 @@
 //   Rebuild all three neighbour lists and the boundary normals alone;
 //   StepTransposed  the whole step with SolverSettings::transpose_lists (the full
 //           step's list transposed from the half step's instead of searched).
+//   StepSkin<P>  the whole step with a Verlet skin of P % of 2h
+//           (SolverSettings::neighbor_skin; counter steps_per_build).
 // Arguments: particles, threads.
 #include "bench/block_case.hpp"
 #include "engine/parallel.hpp"
@@ -35,7 +37,7 @@ constexpr double kAlpha = 1.2;
 
 enum class Stage { step, half, full, rebuild };
 
-template <int Dim, Stage stage, bool transposed = false>
+template <int Dim, Stage stage, bool transposed = false, int skin_percent = 0>
 void BM_Stage(benchmark::State& state) {
   const int before = thread_count();
   set_thread_count(static_cast<int>(state.range(1)));
@@ -45,7 +47,11 @@ void BM_Stage(benchmark::State& state) {
       state.range(0), kAlpha,
       stage == Stage::step ? Kinematics::updated_lagrangian : Kinematics::small_strain,
       [](ParticleSet<Dim>&, double) {},
-      [](SolverSettings<Dim>& settings) { settings.transpose_lists = transposed; });
+      [](SolverSettings<Dim>& settings) {
+        settings.transpose_lists = transposed;
+        settings.neighbor_skin = 0.01 * skin_percent;
+      });
+  const std::int64_t builds_before = solver.counters().neighbor_builds;
   const double dt = bench::block_time_step(solver, kAlpha);
   for (auto _ : state) {
     if constexpr (stage == Stage::step) solver.step(dt);
@@ -60,6 +66,10 @@ void BM_Stage(benchmark::State& state) {
   state.counters["pairs_per_virtual"] =
       static_cast<double>(solver.virtual_from_real().pair_count()) /
       static_cast<double>(solver.virtual_particles().size());
+  if constexpr (stage == Stage::step)
+    state.counters["steps_per_build"] =
+        static_cast<double>(state.iterations()) /
+        static_cast<double>(std::max<std::int64_t>(1, solver.counters().neighbor_builds - builds_before));
   set_thread_count(before);
 }
 
@@ -81,7 +91,12 @@ BENCHMARK(BM_Stage<2, Stage::half>)->Name("Half2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::full>)->Name("Full2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::rebuild>)->Name("Rebuild2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::step, true>)->Name("StepTransposed2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, false, 5>)->Name("StepSkin5_2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, false, 10>)->Name("StepSkin10_2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, false, 20>)->Name("StepSkin20_2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<3, Stage::step>)->Name("Step3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::step, false, 5>)->Name("StepSkin5_3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::step, false, 10>)->Name("StepSkin10_3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::step, true>)->Name("StepTransposed3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::half>)->Name("Half3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::full>)->Name("Full3D")->Apply(sizes_3d);

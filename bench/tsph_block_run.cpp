@@ -5,7 +5,7 @@
 //   tsph-block-run --dim 2 --particles 10000000 --steps 3 [--threads 2] [--alpha 1.2]
 //                  [--small-strain] [--order none|shuffled|cells|morton]
 //                  [--search auto|cell_list|kd_tree] [--transpose]
-//                  [--solver-order none|cells|morton]
+//                  [--solver-order none|cells|morton] [--skin S]
 #include "bench/block_case.hpp"
 #include "engine/memory_estimate.hpp"
 #include "engine/parallel.hpp"
@@ -39,6 +39,7 @@ struct Options {
   bool transpose_lists = false;  ///< SolverSettings::transpose_lists
   /// SolverSettings::spatial_order: the solver sorts the sets when their order decays.
   SpatialOrder solver_order = SpatialOrder::none;
+  double skin = 0.0;  ///< SolverSettings::neighbor_skin (fraction of 2h)
 };
 
 [[noreturn]] void usage_error(const std::string& message) {
@@ -46,7 +47,8 @@ struct Options {
   std::fprintf(stderr,
                "usage: tsph-block-run [--dim 2|3] [--particles N] [--steps K] [--threads T] "
                "[--alpha A] [--small-strain] [--order none|shuffled|cells|morton] "
-               "[--search auto|cell_list|kd_tree] [--transpose] [--solver-order none|cells|morton]\n");
+               "[--search auto|cell_list|kd_tree] [--transpose] [--solver-order none|cells|morton] "
+               "[--skin S]\n");
   std::exit(2);
 }
 
@@ -61,8 +63,9 @@ template <int Dim>
 int run(const Options& o) {
   const auto box = bench::block_box<Dim>(o.particles);
   const auto real_count = static_cast<std::size_t>(box.total_nodes());
+  const double skin = o.kinematics == Kinematics::updated_lagrangian ? o.skin : 0.0;
   try {
-    check_memory_budget(estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists), real_count,
+    check_memory_budget(estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists, skin), real_count,
                         available_memory_bytes());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tsph-block-run: error: %s\n", e.what());
@@ -84,6 +87,7 @@ int run(const Options& o) {
     settings.neighbor_search = o.search;
     settings.transpose_lists = o.transpose_lists;
     settings.spatial_order = o.solver_order;
+    settings.neighbor_skin = o.skin;
   };
   auto solver = bench::make_block<Dim>(o.particles, o.alpha, o.kinematics, reorder, configure);
   const auto built = std::chrono::steady_clock::now();
@@ -93,16 +97,17 @@ int run(const Options& o) {
   const double setup_s = std::chrono::duration<double>(built - start).count();
   const double steps_s = std::chrono::duration<double>(end - built).count();
   std::printf("dim %d, real %zu, virtual %zu, pairs virtual<-real %zu, "
-              "threads %d, search %s, reorders %lld\n",
+              "threads %d, search %s, reorders %lld, skin %g, list builds %lld in %d steps\n",
               Dim, solver.real().size(), solver.virtual_particles().size(),
               solver.virtual_from_real().pair_count(),
               thread_count(), std::string(to_string(solver.neighbor_search_used())).c_str(),
-              static_cast<long long>(solver.counters().reorders));
+              static_cast<long long>(solver.counters().reorders), skin,
+              static_cast<long long>(solver.counters().neighbor_builds), o.steps);
   std::printf("setup %.3f s, %d steps %.3f s, %.3f M real-particle-steps/s, estimate %.0f B "
               "per real particle, kinetic energy %.9e\n",
               setup_s, o.steps, steps_s,
               o.steps > 0 ? 1e-6 * static_cast<double>(real_count) * o.steps / steps_s : 0.0,
-              estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists), solver.kinetic_energy());
+              estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists, skin), solver.kinetic_energy());
   return 0;
 }
 
@@ -156,6 +161,9 @@ int main(int argc, char** argv) {
     } else if (key == "--steps") {
       if (!(number >= 0.0 && number <= 1e6)) usage_error("steps = " + value + " is invalid: must lie in [0, 1e6]");
       o.steps = static_cast<int>(number);
+    } else if (key == "--skin") {
+      if (!(number >= 0.0 && number <= 1.0)) usage_error("skin = " + value + " is invalid: must lie in [0, 1] (a fraction of the support radius 2h)");
+      o.skin = number;
     } else if (key == "--threads") {
       if (!(number >= 1.0 && number <= 1024.0)) usage_error("threads = " + value + " is invalid: must lie in [1, 1024]");
       o.threads = static_cast<int>(number);

@@ -15,7 +15,12 @@
 //     the coordinates in cell order (8 + 8 Dim B);
 //   * with SolverSettings::transpose_lists, both half-step lists at once while the
 //     full step's is transposed from the half step's (instead of the cell list and one
-//     list).
+//     list);
+//   * with a Verlet skin s (SolverSettings::neighbor_skin, a fraction of 2h), both
+//     half-step lists at once, each of the radius (1 + s) 2h ((1 + s)^Dim times the
+//     pairs) (the displacements since the search are bounded by a scalar per set, no
+//     stored positions); the cell list is released before the second list is
+//     transposed from the first.
 #pragma once
 
 #include "engine/particle_set.hpp"
@@ -32,12 +37,14 @@
 namespace tsph {
 
 template <int Dim>
-double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false) {
+double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false, double skin = 0.0) {
   if (!(alpha > 0.0) || !std::isfinite(alpha))
     throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
                                 " must be positive");
+  if (!(skin >= 0.0) || !std::isfinite(skin))
+    throw std::invalid_argument("memory estimate: skin = " + std::to_string(skin) + " must be >= 0");
   const double set = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
-  const double radius = 2.0 * alpha;  // support radius in lattice spacings
+  const double radius = 2.0 * alpha * (1.0 + skin);  // list radius in lattice spacings
   const double pairs = Dim == 1   ? 2.0 * radius
                        : Dim == 2 ? std::numbers::pi * radius * radius
                                   : 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
@@ -45,6 +52,7 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
   const double previous_velocity = 8.0 * Dim;
   const double boundary_offsets = 8.0;
   const double cell_list = 8.0 + 8.0 * Dim;
+  if (skin > 0.0) return 2.0 * set + previous_velocity + 2.0 * list + boundary_offsets;
   const double lists = transposed_lists ? 2.0 * list : list + cell_list;
   return 2.0 * set + previous_velocity + lists + boundary_offsets;
 }

@@ -141,6 +141,23 @@ struct SolverSettings {
   /// lists are then held at once, +65 B per real particle in 2D (461 B, over the 400 B
   /// target; bench/RESULTS.md, memory_estimate.hpp). Off by default for that reason.
   bool transpose_lists = false;
+  /// Verlet skin of the updated-Lagrangian neighbour lists, as a fraction of the support
+  /// radius 2h, in [0, 1]. 0 (the default): the lists are searched at every use (the
+  /// full step's list at the midpoint configuration, the others at x^n). s > 0: all
+  /// lists are searched with the radius (1 + s) 2h, kept across steps (the full step's
+  /// is the transpose of the half step's), and searched again only when a pair may have
+  /// come closer by more than the skin s 2h since the last search: a bound on each set's
+  /// path length since then (the sum over moves of the largest dt/2 |v|, no stored
+  /// positions), checked at every configuration at which lists are used (x^n, and the
+  /// midpoint of move_to_midpoint; lists_outdated). Pairs beyond 2h have kernel weights exactly 0 and
+  /// every other use of a row is filtered by distance (within_support), so the run is
+  /// bitwise the run without skin (tested); with hourglass_stiffness,
+  /// hourglass_coefficient or surface_extrapolation the run without skin uses lists of
+  /// x^n at the midpoint, the run with skin the pairs within 2h at the midpoint (the
+  /// two differ by pairs that cross the support edge within half a step). Not used in
+  /// small strain (nothing moves). Both half-step lists are then held at once
+  /// (bench/RESULTS.md, memory_estimate.hpp).
+  double neighbor_skin = 0.0;
   /// Locality: both particle sets are sorted into this order (cells of a quarter of the
   /// support radius, row by row or along the Z curve) when their order has decayed:
   /// when the mean index spread of the rows of the virtual -> real list (last - first
@@ -162,6 +179,10 @@ struct SolverCounters {
   std::int64_t interpolation_fallbacks = 0;
   std::int64_t gradient_fallbacks = 0;
   std::int64_t reorders = 0;  ///< sorts of the particle sets (SolverSettings::spatial_order)
+  /// Checks of the displacement since the last search (SolverSettings::neighbor_skin):
+  /// two per updated-Lagrangian step; each that finds a particle beyond half the skin
+  /// searches again (neighbor_builds).
+  std::int64_t skin_checks = 0;
 };
 
 /// Index of stress component sigma_ij in the per-particle stress arrays.
@@ -277,6 +298,9 @@ class TaylorSph {
     if (!(settings_.reorder_threshold > 1.0) || !std::isfinite(settings_.reorder_threshold))
       throw std::invalid_argument("solver: reorder threshold = " +
                                   std::to_string(settings_.reorder_threshold) + " must be > 1");
+    if (!(settings_.neighbor_skin >= 0.0 && settings_.neighbor_skin <= 1.0))
+      throw std::invalid_argument("solver: neighbour skin = " + std::to_string(settings_.neighbor_skin) +
+                                  " must lie in [0, 1] (a fraction of the support radius 2h)");
     if (real_.size() == 0 || virtual_.size() == 0)
       throw std::invalid_argument("solver: needs at least one real and one virtual particle");
     boundary_slot_.assign(real_.size(), -1);
@@ -317,6 +341,13 @@ class TaylorSph {
   }
 
   double support_radius() const { return kSupportFactor * settings_.smoothing_length; }
+  /// The skin in length units (SolverSettings::neighbor_skin x 2h), 0 in small strain.
+  double skin_distance() const {
+    return settings_.kinematics == Kinematics::updated_lagrangian ? settings_.neighbor_skin * support_radius()
+                                                                   : 0.0;
+  }
+  /// Radius of the neighbour searches: 2h plus the skin.
+  double list_radius() const { return support_radius() + skin_distance(); }
   double time() const { return time_; }
   /// Sets the clock (to land exactly on an output time after round-off).
   void set_time(double t) { time_ = t; }
@@ -328,9 +359,12 @@ class TaylorSph {
   const NeighborList& virtual_from_real() const { return virtual_from_real_; }
   /// The search of the last rebuild (cell_list or kd_tree; `automatic` resolved).
   NeighborSearch neighbor_search_used() const { return neighbor_search_used_; }
-  /// In updated-Lagrangian runs this list is built in the full step and released by the
-  /// rebuild at the end of the step (see lists_used_once()): empty between steps.
+  /// In updated-Lagrangian runs without skin this list is built in the full step and
+  /// released by the rebuild at the end of the step (see lists_used_once()): empty
+  /// between steps. With a skin both lists are kept (radius list_radius()).
   const NeighborList& real_from_virtual() const { return real_from_virtual_; }
+  /// Rows: real particles (only the boundary ones filled); entries: real, self excluded.
+  const NeighborList& real_from_real() const { return real_from_real_; }
   /// Boundary particles (indices into real()) and their outward unit normals.
   const std::vector<std::uint32_t>& boundary_particles() const { return boundary_particles_; }
   const std::vector<Vec>& boundary_normals() const { return boundary_normal_; }
@@ -344,7 +378,10 @@ class TaylorSph {
       boundary_gradients(kernel);
       half_step(kernel, dt);
       if (settings_.conservative_momentum) store_momentum_weights(kernel);
-      if (settings_.kinematics == Kinematics::updated_lagrangian) move_to_midpoint(dt);
+      if (settings_.kinematics == Kinematics::updated_lagrangian) {
+        move_to_midpoint(dt);
+        if (skin_distance() > 0.0 && lists_outdated(dt)) search_lists();  // lists used at the midpoint
+      }
       full_step(kernel, dt);
       apply_boundary_conditions(dt, time_ + dt);
       if (settings_.conservative_momentum) apply_conservative_momentum(dt, time_ + dt);
@@ -353,7 +390,13 @@ class TaylorSph {
     });
     check_stability(dt);  // a diverged state is reported before it moves any particle
     move(dt);
-    if (settings_.kinematics == Kinematics::updated_lagrangian) rebuild_neighbors();
+    if (settings_.kinematics == Kinematics::updated_lagrangian) {
+      if (skin_distance() > 0.0 && !lists_outdated(dt)) {
+        compute_boundary_normals();  // the lists still hold every pair within 2h at x^{n+1}
+      } else {
+        rebuild_neighbors();
+      }
+    }
     time_ += dt;
     ++counters_.steps;
   }
@@ -724,6 +767,7 @@ class TaylorSph {
     const ParticleView<Dim> source = virtual_.view();
     const ParticleView<Dim> target = real_.view();
     const PointsView<Dim> source_points = points_of<Dim>(virtual_);
+    const PointsView<Dim> target_points = points_of<Dim>(real_);
     const double h = settings_.smoothing_length;
     const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
     if (lists_used_once()) {  // the half step's list is done with: one list at a time
@@ -762,13 +806,16 @@ class TaylorSph {
             boundary_half_velocity_[static_cast<std::size_t>(b)] = s.velocity;
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
             Vec centroid = Vec::Zero();  // of the virtual stencil (surface_extrapolation)
+            std::size_t in_support = 0;  // a row with a skin also holds pairs beyond 2h
             for (std::size_t k = 0; k < nb.size(); ++k) {
               gradient_sum += w.gradient_of(k);
+              if (!within_support(target_points, r, source_points, nb[k])) continue;
               centroid += virtual_.position_of(nb[k]);
+              ++in_support;
             }
             boundary_gradient_sum_[static_cast<std::size_t>(b)] = gradient_sum;
             boundary_stencil_offset_[static_cast<std::size_t>(b)] =
-                target.position_of(r) - centroid / static_cast<double>(nb.size());
+                target.position_of(r) - centroid / static_cast<double>(in_support);
             boundary_half_stress_gradient_[static_cast<std::size_t>(b)] =
                 stress_gradient(source, nb, w, s.stress);
           }
@@ -973,7 +1020,9 @@ class TaylorSph {
     };
     const Vec gi = g_of(b);
     Mat moments = Mat::Zero(), differences = Mat::Zero();
+    const PointsView<Dim> real_points = points_of<Dim>(real_);
     for (std::uint32_t j : real_from_real_.neighbors(i)) {
+      if (!within_support(real_points, i, real_points, j)) continue;  // skin pairs
       const std::int32_t bj = boundary_slot_[j];
       if (bj < 0 || !boundary_on_surface_[static_cast<std::size_t>(bj)] ||
           boundary_normal_[static_cast<std::size_t>(bj)].dot(n) < 0.999)
@@ -1145,11 +1194,13 @@ class TaylorSph {
       p.template tail<Dim>() = dx;
       return p;
     };
-    // Linear least-squares fit weights over a stencil, offsets X_source - X_centre.
-    auto fit = [&](auto&& neighbours, auto&& dx_of, double kernel_h) {
+    // Linear least-squares fit weights over a stencil, offsets X_source - X_centre; the
+    // neighbours for which keep(k) is false are skipped.
+    auto fit = [&](auto&& neighbours, auto&& dx_of, double kernel_h, auto&& keep) {
       Moments moments = Moments::Zero();
       double weight_sum = 0.0;
       for (std::uint32_t k : neighbours) {
+        if (!keep(k)) continue;
         const Vec dx = dx_of(k);
         const Basis p = basis(dx);
         const double w = kernel.value(dx.norm(), kernel_h);
@@ -1174,6 +1225,11 @@ class TaylorSph {
         u[d] = real_.displacement[d][j] + 0.5 * dt * previous_velocity_[d][j];
       return u;
     };
+    // The half-step lists with a skin also hold pairs beyond 2h at the current positions
+    // (within_support): the fit and the force skip them (their weights come from the
+    // initial coordinates, so they would not vanish).
+    const PointsView<Dim> real_points = points_of<Dim>(real_), virtual_points = points_of<Dim>(virtual_);
+    const auto every = [](std::uint32_t) { return true; };
     const std::size_t real_count = real_.size(), virtual_count = virtual_.size();
     forward_fit_.resize(virtual_count);
     return_fit_.resize(real_count);
@@ -1183,17 +1239,19 @@ class TaylorSph {
     parallel_for(virtual_count, [&](std::size_t v) {
       const auto nb = virtual_from_real_.neighbors(v);
       const auto vi = static_cast<std::uint32_t>(v);
-      forward_fit_[v] = fit(nb, [&](std::uint32_t j) { return offset(j, vi); }, h);
+      const auto in_support = [&](std::uint32_t j) { return within_support(virtual_points, v, real_points, j); };
+      forward_fit_[v] = fit(nb, [&](std::uint32_t j) { return offset(j, vi); }, h, in_support);
       Vec value = Vec::Zero();
       if (forward_fit_[v].weight_sum > 0.0)
-        for (std::uint32_t j : nb) value += coefficient(forward_fit_[v], offset(j, vi), h) * displacement(j);
+        for (std::uint32_t j : nb)
+          if (in_support(j)) value += coefficient(forward_fit_[v], offset(j, vi), h) * displacement(j);
       virtual_value_[v] = value;
     });
     // R: r_I = u_I - sum_v R_Iv a_v, weighted by V_I.
     parallel_for(real_count, [&](std::size_t i) {
       const auto nb = hourglass_from_virtual_.neighbors(i);
       const auto ri = static_cast<std::uint32_t>(i);
-      return_fit_[i] = fit(nb, [&](std::uint32_t v) { return Vec(-offset(ri, v)); }, return_h);
+      return_fit_[i] = fit(nb, [&](std::uint32_t v) { return Vec(-offset(ri, v)); }, return_h, every);
       Vec residual = Vec::Zero();
       if (return_fit_[i].weight_sum > 0.0) {
         residual = displacement(ri);
@@ -1220,7 +1278,7 @@ class TaylorSph {
       const auto rj = static_cast<std::uint32_t>(j);
       Vec force = round_trip_residual_[j];
       for (std::uint32_t v : real_from_virtual_.neighbors(j))
-        if (forward_fit_[v].weight_sum > 0.0)
+        if (forward_fit_[v].weight_sum > 0.0 && within_support(real_points, j, virtual_points, v))
           force -= coefficient(forward_fit_[v], offset(rj, v), h) * virtual_value_[v];
       for (int d = 0; d < Dim; ++d) real_.velocity[d][j] -= dt * stiffness * force[d] / real_.mass[j];
     });
@@ -1333,7 +1391,62 @@ class TaylorSph {
   /// midpoint positions (pairs that cross the support edge in half a step have weights
   /// near zero).
   bool lists_used_once() const {
-    return settings_.kinematics == Kinematics::updated_lagrangian && settings_.hourglass_stiffness == 0.0;
+    return settings_.kinematics == Kinematics::updated_lagrangian && settings_.hourglass_stiffness == 0.0 &&
+           skin_distance() == 0.0;
+  }
+
+  /// Whether the pair (a_i, b_j) of a neighbour row lies within the support 2h (the
+  /// test of the searches: squared_distance <= radius^2). Without skin every row holds
+  /// only the pairs of its search and this is true (rows are used as they were built);
+  /// with a skin, rows also hold pairs up to 2h + skin, which every use of a row that
+  /// does not go through kernel weights (those are exactly 0 beyond 2h) must skip.
+  bool within_support(const PointsView<Dim>& a, std::size_t i, const PointsView<Dim>& b, std::size_t j) const {
+    if (skin_distance() == 0.0) return true;
+    const double radius = support_radius();
+    return squared_distance<Dim>(a, i, b, j) <= radius * radius;
+  }
+
+  /// Verlet skin (SolverSettings::neighbor_skin): whether the lists may miss a pair
+  /// within 2h, from bounds on how far the particles have moved since the last search,
+  /// without storing the positions of that search. Each call first adds the move just
+  /// made to the path bound of each set: both moves of a step (move_to_midpoint, move)
+  /// displace every particle by dt/2 times the velocity it holds after the move, so the
+  /// largest dt/2 |v| over the set bounds that move's displacements. A particle's net
+  /// displacement since the search is at most its path length, at most its set's bound
+  /// b (real_path_bound_, virtual_path_bound_). A pair (i, j) changes its distance by at
+  /// most d_i + d_j, so by at most b_real + b_virtual for the virtual -> real rows and
+  /// 2 b_real for the real -> real (boundary) rows. While both are <= s, every pair
+  /// within 2h now was within 2h + s at the search (triangle inequality:
+  /// |x_i - x_j| >= |x_i^0 - x_j^0| - d_i - d_j > (2h + s) - s for a pair not in the
+  /// list), so the lists are complete. Called at every configuration where lists are
+  /// used, right after the move that reached it: x^n (end of the previous step) and the
+  /// midpoint (move_to_midpoint). One pass over the velocities of both sets, a maximum
+  /// per block of threads (parallel_blocks), combined afterwards: no atomics, the same
+  /// answer on any number of threads. A non-finite velocity makes the bound non-finite
+  /// and counts as moved (the search then reports it).
+  bool lists_outdated(double dt) {
+    ++counters_.skin_checks;
+    const double half_dt = 0.5 * dt;
+    auto largest_speed = [](const ParticleSet<Dim>& set) {
+      std::vector<double> block_largest(static_cast<std::size_t>(std::max(1, thread_count())), 0.0);
+      const std::size_t blocks =
+          parallel_blocks(set.size(), [&](std::size_t b, std::size_t begin, std::size_t end) {
+            double m = 0.0;
+            for (std::size_t i = begin; i < end; ++i) {
+              double v2 = 0.0;
+              for (int d = 0; d < Dim; ++d) v2 += set.velocity[d][i] * set.velocity[d][i];
+              m = v2 <= m ? m : v2;  // NaN propagates: a non-finite velocity counts as moved
+            }
+            block_largest[b] = m;
+          });
+      double largest = 0.0;
+      for (std::size_t b = 0; b < blocks; ++b) largest = block_largest[b] <= largest ? largest : block_largest[b];
+      return std::sqrt(largest);
+    };
+    real_path_bound_ += half_dt * largest_speed(real_);
+    virtual_path_bound_ += half_dt * largest_speed(virtual_);
+    const double pair_bound = real_path_bound_ + std::max(real_path_bound_, virtual_path_bound_);
+    return !(pair_bound <= skin_distance() && std::isfinite(pair_bound));
   }
 
   /// Neighbour lists (build_lists), and the particle sets sorted when their order has
@@ -1460,7 +1573,16 @@ class TaylorSph {
   /// Neighbour lists of both half-steps and of the real set, and the boundary normals
   /// n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body).
   void build_lists() {
-    const double radius = support_radius();
+    search_lists();
+    compute_boundary_normals();
+  }
+
+  /// The searches of build_lists, with radius list_radius(): both half-step lists
+  /// (without skin in updated Lagrangian the full step's is left to the full step), the
+  /// boundary rows of the real set, and with a skin the path bounds reset.
+  void search_lists() {
+    const double radius = list_radius();
+    const bool skin = skin_distance() > 0.0;
     const PointsView<Dim> real_points = points_of<Dim>(real_);
     const PointsView<Dim> virtual_points = points_of<Dim>(virtual_);
     // The old lists are released first, so that two generations never coexist (memory).
@@ -1477,25 +1599,37 @@ class TaylorSph {
     }
     if (!lists_used_once())
       real_from_virtual_ =
-          settings_.transpose_lists
+          settings_.transpose_lists || skin
               ? transpose(virtual_from_real_, real_.size())
               : NeighborSearcher<Dim>(settings_.neighbor_search, virtual_points, radius).query(real_points);
+    real_path_bound_ = 0.0;  // the lists hold the pairs within list_radius() from here on
+    virtual_path_bound_ = 0.0;
+    ++counters_.neighbor_builds;
+  }
+
+  /// The boundary normals n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body)
+  /// from the real set at its current positions (x^n), and at the first build the
+  /// surface/interior decision; rows filtered to the support (within_support).
+  void compute_boundary_normals() {
+    const PointsView<Dim> real_points = points_of<Dim>(real_);
     visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) {
-      const bool first_build = counters_.neighbor_builds == 0;
+      const bool first_build = !surface_decided_;
       if (first_build) boundary_on_surface_.assign(boundary_particles_.size(), 1);
       for (std::size_t b = 0; b < boundary_particles_.size(); ++b) {
         const std::uint32_t i = boundary_particles_[b];
         const Vec x = real_.position_of(i);
         Vec sum = Vec::Zero();
         for (std::uint32_t j : real_from_real_.neighbors(i))
-          sum += real_.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - real_.position_of(j)),
-                                                        settings_.smoothing_length);
+          if (within_support(real_points, i, real_points, j))
+            sum += real_.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - real_.position_of(j)),
+                                                          settings_.smoothing_length);
         const double norm = sum.norm();
         const Vec kernel_normal = norm > 0.0 ? Vec(-sum / norm) : Vec(Vec::Unit(0));
         // On a surface no neighbour lies within 60 degrees of the outward normal; inside,
         // some neighbour always does (a lattice has one every 90 degrees or closer).
         double most_outward = -1.0;
         for (std::uint32_t j : real_from_real_.neighbors(i)) {
+          if (!within_support(real_points, i, real_points, j)) continue;
           const Vec offset = real_.position_of(j) - x;
           most_outward = std::max(most_outward, offset.dot(kernel_normal) / offset.norm());
         }
@@ -1513,7 +1647,7 @@ class TaylorSph {
         boundary_normal_[b] = face_normal(i, kernel_normal);
       }
     });
-    ++counters_.neighbor_builds;
+    surface_decided_ = true;
   }
 
   /// The normal of the face a boundary particle's condition applies to: the direction
@@ -1529,9 +1663,11 @@ class TaylorSph {
       return kernel_normal;
     } else {
       const std::int32_t condition = real_.boundary[i];
+      const PointsView<Dim> real_points = points_of<Dim>(real_);
       std::vector<Vec> points{real_.position_of(i)};
       for (std::uint32_t j : real_from_real_.neighbors(i))
-        if (real_.boundary[j] == condition) points.push_back(real_.position_of(j));
+        if (real_.boundary[j] == condition && within_support(real_points, i, real_points, j))
+          points.push_back(real_.position_of(j));
       if (points.size() < static_cast<std::size_t>(Dim)) return kernel_normal;
       Vec mean = Vec::Zero();
       for (const Vec& x : points) mean += x;
@@ -1564,6 +1700,10 @@ class TaylorSph {
   NeighborList virtual_from_real_;  ///< rows: virtual particles; entries: real
   NeighborList real_from_virtual_;  ///< rows: real particles; entries: virtual
   NeighborList real_from_real_;     ///< rows: real particles (only boundary ones filled); entries: real, self excluded
+  /// Bounds on the path length of any particle of each set since the last search
+  /// (only with a skin: lists_outdated).
+  double real_path_bound_ = 0.0, virtual_path_bound_ = 0.0;
+  bool surface_decided_ = false;  ///< boundary_on_surface_ set (at the first build)
 
   std::vector<std::uint32_t> boundary_particles_;  ///< real indices with a condition
   std::vector<std::int32_t> boundary_slot_;        ///< real index -> slot, or -1

@@ -25,8 +25,13 @@ TEST(MemoryEstimate, CountsSetsListsAndCellList) {
   EXPECT_GT(estimate_bytes_per_real_particle<3>(1.6), estimate_bytes_per_real_particle<3>(1.2));
   // Transposed lists: two lists (8 B offsets + 4 B per pair each) instead of one and the cell list.
   EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, true), 264.0 + 16.0 + 2.0 * 80.38 + 8.0, 0.2);
+  // A skin of 10 % of 2h: two lists of 1.1^2 the pairs (8 + 4 x 21.9 B each); no stored
+  // positions (path bounds), no cell list at the peak.
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.1),
+              264.0 + 16.0 + 2.0 * (8.0 + 4.0 * 1.21 * 18.096) + 8.0, 0.2);
   for (double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()})
     EXPECT_THROW(estimate_bytes_per_real_particle<2>(bad), std::invalid_argument);
+  EXPECT_THROW(estimate_bytes_per_real_particle<2>(1.2, false, -0.1), std::invalid_argument);
 }
 
 TEST(MemoryEstimate, RefusesACountThatDoesNotFitWithTheEstimateAndTheLimit) {

@@ -251,6 +251,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.surface_extrapolation = c.surface_extrapolation;
   b.settings.neighbor_search = c.neighbor_search;
   b.settings.transpose_lists = c.transpose_lists;
+  b.settings.neighbor_skin = c.neighbor_skin;
   b.material.emplace(c.young_modulus, c.poisson_ratio, c.density,
                      Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
   b.wave_speed = b.material->p_wave_speed(c.density);
@@ -557,8 +558,9 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       "\"spacing\": {}, \"smoothing_length\": {}, \"alpha\": {}, \"kernel\": {}, \"interpolation\": {}, "
       "\"kinematics\": {}, \"E\": {}, \"nu\": {}, \"rho\": {}, \"plane\": {}, \"p_wave_speed\": {}, "
       "\"dt\": {}, \"cfl\": {}, \"end_time\": {}, \"damping\": {}, \"hourglass\": {}, "
-      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"threads\": {}}},\n"
-      "  \"time\": {},\n  \"steps\": {},\n  \"wall_seconds\": {},\n  \"particle_steps_per_second\": {},\n"
+      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"neighbor_skin\": {}, "
+      "\"threads\": {}}},\n"
+      "  \"time\": {},\n  \"steps\": {},\n  \"neighbor_builds\": {},\n  \"wall_seconds\": {},\n  \"particle_steps_per_second\": {},\n"
       "  \"output_frames\": {},\n  \"output_writer_seconds\": {},\n  \"output_wait_seconds\": {},\n"
       "  \"errors\": [{}\n  ]\n}}\n",
       json_string(o.version), json_string(c.path), json_string(c.title), overrides,
@@ -572,9 +574,9 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       json_number(b.wave_speed), json_number(b.dt), json_number(b.dt * b.wave_speed / c.spacing),
       json_number(c.end_time), json_number(c.damping), json_number(c.hourglass),
       json_number(c.hourglass_stiffness), json_string(c.wall_gradient ? "wall_gradient" : "characteristics"),
-      c.surface_extrapolation ? "true" : "false",
+      c.surface_extrapolation ? "true" : "false", json_number(c.neighbor_skin),
       thread_count(),
-      json_number(r.time), r.steps, json_number(r.wall_seconds), json_number(r.particle_steps_per_second),
+      json_number(r.time), r.steps, r.neighbor_builds, json_number(r.wall_seconds), json_number(r.particle_steps_per_second),
       r.frames, json_number(r.output_busy_seconds), json_number(r.output_wait_seconds), errors);
   output::write_text_file((out / "summary.json").string(), text);
 }
@@ -788,6 +790,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   report.wall_seconds = std::chrono::duration<double>(stop - start).count();
   report.time = solver->time();
   report.steps = step_count();
+  report.neighbor_builds = solver->counters().neighbor_builds;
   report.particle_steps_per_second = static_cast<double>(report.real_particles) *
                                      static_cast<double>(solver->counters().steps) /
                                      std::max(report.wall_seconds, 1e-12);
@@ -893,7 +896,9 @@ ResourceEstimate estimate(const CaseFile& c) {
   // virtual set as about as large), the snapshot the background writer holds, and a
   // checkpoint in the making (a copy of both sets, its byte buffer and the string
   // handed to the writer); the frame bookkeeping is held once more by the run.
-  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha) * std::max(e.real_particles, e.virtual_particles) +
+  const double skin = c.kinematics == Kinematics::updated_lagrangian ? c.neighbor_skin : 0.0;
+  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, c.transpose_lists, skin) *
+                       std::max(e.real_particles, e.virtual_particles) +
                    e.frame_bytes + 3.0 * (e.checkpoint_bytes - bookkeeping) + 4.0 * bookkeeping;
   return e;
 }

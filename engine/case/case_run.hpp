@@ -56,6 +56,7 @@ struct RunReport {
   Status status = Status::finished;
   double time = 0.0;
   std::int64_t steps = 0;
+  std::int64_t neighbor_builds = 0;  ///< list searches of this run (solver.neighbor_skin: fewer than steps)
   double dt = 0.0;
   double wall_seconds = 0.0, particle_steps_per_second = 0.0;
   double output_busy_seconds = 0.0, output_wait_seconds = 0.0;
