@@ -43,6 +43,7 @@ struct CantileverSettings {
   /// Stress update of the clamped particles (SolverSettings::velocity_wall).
   typename SolverSettings<Dim>::VelocityWall clamp = SolverSettings<Dim>::VelocityWall::characteristics;
   bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
+  bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D)
   double end_time = 3.0;       ///< give up after this simulated time (s)
   double tolerance = 1e-5;     ///< converged when |tip velocity| < tolerance * tip_exact / T1
   std::function<void(double time, double tip, double kinetic)> progress;  ///< optional

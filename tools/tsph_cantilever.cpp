@@ -56,6 +56,7 @@ struct Options {
   double hourglass_stiffness = 0.0;
   std::string clamp = "characteristics";
   bool surface_extrapolation = false;
+  bool free_edge_uniaxial = false;
   double end_time = 3.0, tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -129,6 +130,7 @@ int run(const Options& o) {
   s.clamp = o.clamp == "wall-gradient" ? SolverSettings<Dim>::VelocityWall::wall_gradient
                                        : SolverSettings<Dim>::VelocityWall::characteristics;
   s.surface_extrapolation = o.surface_extrapolation;
+  s.free_edge_uniaxial = o.free_edge_uniaxial;
   s.end_time = o.end_time;
   s.tolerance = o.tolerance;
   if (const auto errors = validate(s); !errors.empty()) {
@@ -214,6 +216,9 @@ int main(int argc, char** argv) {
   app.add_flag("--surface-extrapolation", o.surface_extrapolation,
                "free-surface tangential velocity gradient extrapolated from the virtual row to the surface "
                "(SolverSettings::surface_extrapolation)");
+  app.add_flag("--free-edge-uniaxial", o.free_edge_uniaxial,
+               "3D: the particles on an edge between two free faces take the uniaxial stress along the edge "
+               "(SolverSettings::free_edge_uniaxial)");
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance, "rest criterion (relative tip velocity)")
       ->capture_default_str();
