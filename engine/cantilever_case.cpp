@@ -170,6 +170,7 @@ CantileverModel<Dim> make_cantilever(const CantileverSettings<Dim>& s) {
   settings.hourglass_stiffness = s.hourglass_stiffness;
   settings.velocity_wall = s.clamp;
   settings.surface_extrapolation = s.surface_extrapolation;
+  settings.free_edge_uniaxial = s.free_edge_uniaxial;
   const LinearElastic<Dim> material(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode);
   model.conditions = conditions;
   model.solver = std::make_unique<TaylorSph<Dim>>(std::move(real), std::move(virtual_particles),

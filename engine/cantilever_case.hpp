@@ -51,6 +51,7 @@ struct CantileverSettings {
       Dim == 2 ? SolverSettings<Dim>::VelocityWall::wall_gradient
                : SolverSettings<Dim>::VelocityWall::characteristics;
   bool surface_extrapolation = Dim == 2;  ///< SolverSettings::surface_extrapolation
+  bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D)
   double end_time = 3.0;       ///< give up after this simulated time (s)
   double tolerance = 1e-5;     ///< converged when |tip velocity| < tolerance * tip_exact / T1
   std::function<void(double time, double tip, double kinetic)> progress;  ///< optional

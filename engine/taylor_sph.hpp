@@ -131,6 +131,12 @@ struct SolverSettings {
   /// surface); d_k d_l v_n is the tangential difference of the neighbouring surface
   /// particles' half-step gradients d_k v_n (README, The cantilever). Off by default.
   bool surface_extrapolation = false;
+  /// 3D, axis-aligned boxes: a particle on an edge between two zero-traction faces takes
+  /// the uniaxial stress along the edge (make_free_edge_uniaxial) instead of the
+  /// characteristic relations on its diagonal kernel normal, which leave the shear
+  /// sigma_xy = -sigma_xz free (the 3D cantilever's edges then carry its shear force and
+  /// the bending moment never builds; README, Known problems, 3D). Off by default.
+  bool free_edge_uniaxial = false;
   /// Neighbour search of the half-step and boundary lists: the cell list, the kd-tree,
   /// or `automatic`, which picks per rebuild by the rule of neighbor/neighbor_search.hpp
   /// (the kd-tree only for sets spread thinly over a large box). Same lists either way.
@@ -983,7 +989,9 @@ class TaylorSph {
       }
 
       // Back to the global frame.
-      const Mat stress_global = frame * stress1 * frame.transpose();
+      Mat stress_global = frame * stress1 * frame.transpose();
+      if (settings_.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0)
+        make_free_edge_uniaxial(b, n, frame, velocity_dt, dt, stress_global);
       const Vec velocity_global = frame * velocity1;
       for (int d = 0; d < Dim; ++d) real_.velocity[d][i] = velocity_global[d];
       for (int r = 0; r < Dim; ++r)
@@ -994,6 +1002,32 @@ class TaylorSph {
                                   ? 0.0
                                   : boundary_stress_[b][zz] + dt * lame * volumetric;
       }
+    }
+  }
+
+  /// SolverSettings::free_edge_uniaxial: on an edge between two zero-traction faces of
+  /// an axis-aligned box (3D; the normal has two components above 0.3 and the third,
+  /// the edge direction e, below) both faces' tractions vanish, so the stress is
+  /// uniaxial, sigma = s e (x) e, with ds/dt = E e . grad v . e (the edge derivative,
+  /// which the virtual stencil along the edge has). Without it only the traction on
+  /// the kernel's diagonal normal vanishes and the edge keeps sigma_xy = -sigma_xz
+  /// growing with mu d_x v_t (README, Known problems, 3D).
+  void make_free_edge_uniaxial(std::size_t b, const Vec& n, const Mat& frame, const Mat& velocity_dt,
+                               double dt, Mat& stress_global) const {
+    if constexpr (Dim == 3) {
+      int tilted = 0, along = -1;
+      for (int d = 0; d < Dim; ++d) {
+        if (std::abs(n[d]) > 0.3) ++tilted;
+        else along = d;
+      }
+      if (tilted != 2 || along < 0) return;
+      const Vec e = Vec::Unit(along);
+      const Vec e_frame = frame.transpose() * e;  // tangential: e . n = 0
+      const double rate = e_frame.dot(velocity_dt * e_frame);
+      const double previous = e.dot(in_plane(boundary_stress_[b]) * e);
+      stress_global = (previous + dt * material_.young_modulus() * rate) * e * e.transpose();
+    } else {
+      (void)b, (void)n, (void)frame, (void)velocity_dt, (void)dt, (void)stress_global;
     }
   }
 

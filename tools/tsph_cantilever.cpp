@@ -59,6 +59,7 @@ struct Options {
   std::optional<double> hourglass_stiffness;
   std::string clamp = "default";
   bool surface_extrapolation = false, no_surface_extrapolation = false;
+  bool free_edge_uniaxial = false;
   double end_time = 3.0, tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -142,6 +143,7 @@ int run(const Options& o) {
                                          : SolverSettings<Dim>::VelocityWall::characteristics;
   if (o.surface_extrapolation) s.surface_extrapolation = true;
   if (o.no_surface_extrapolation) s.surface_extrapolation = false;
+  if (o.free_edge_uniaxial) s.free_edge_uniaxial = true;
   s.end_time = o.end_time;
   s.tolerance = o.tolerance;
   if (const auto errors = validate(s); !errors.empty()) {
@@ -235,6 +237,9 @@ int main(int argc, char** argv) {
                "turn the surface extrapolation off (the 2D defaults before 2026-11-23: --clamp "
                "characteristics --hourglass-stiffness 0 --no-surface-extrapolation)")
       ->excludes(extrapolate);
+  app.add_flag("--free-edge-uniaxial", o.free_edge_uniaxial,
+               "3D: the particles on an edge between two free faces take the uniaxial stress along the edge "
+               "(SolverSettings::free_edge_uniaxial)");
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance, "rest criterion (relative tip velocity)")
       ->capture_default_str();
