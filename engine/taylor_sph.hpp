@@ -157,7 +157,8 @@ struct SolverSettings {
   /// positions), checked at every configuration at which lists are used (x^n, and the
   /// midpoint of move_to_midpoint; lists_outdated). Pairs beyond 2h have kernel weights exactly 0 and
   /// every other use of a row is filtered by distance (within_support), so the run is
-  /// bitwise the run without skin (tested); with hourglass_stiffness,
+  /// the run without skin to round-off (the zero pairs shift the lanes of the packed
+  /// sums; tested to 1e-12); with hourglass_stiffness,
   /// hourglass_coefficient or surface_extrapolation the run without skin uses lists of
   /// x^n at the midpoint, the run with skin the pairs within 2h at the midpoint (the
   /// two differ by pairs that cross the support edge within half a step). Not used in

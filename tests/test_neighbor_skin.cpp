@@ -3,9 +3,10 @@
 // path-length bounds of the sets say a pair may have closed by the skin. Tested: (1) randomised, after every step of a
 // fast-moving run the kept lists hold every pair within 2h of the brute-force search at
 // the current positions, and they are searched again only now and then; (2) the run
-// with a skin is bitwise the run without (positions, velocities, stresses), on 1 and 2
-// threads, in 2D and 3D: pairs beyond 2h contribute exactly nothing; (3) bad values are
-// refused.
+// with a skin is the run without (positions, velocities, stresses) to 1e-12 of each
+// field's scale (measured 5e-14: the zero pairs beyond 2h shift the other pairs between
+// the lanes of the packed sums), and bitwise the same on 1 and 2 threads, in 2D and 3D;
+// (3) bad values are refused.
 #include "engine/lattice.hpp"
 #include "engine/parallel.hpp"
 #include "engine/region.hpp"
@@ -150,15 +151,34 @@ void check_lists_complete(std::int64_t nodes, int steps) {
 TEST(NeighborSkin, KeptListsHoldEveryPairWithinTheSupport2D) { check_lists_complete<2>(14, 30); }
 TEST(NeighborSkin, KeptListsHoldEveryPairWithinTheSupport3D) { check_lists_complete<3>(6, 12); }
 
-template <int Dim>
-void expect_identical(const ParticleSet<Dim>& a, const ParticleSet<Dim>& b, const std::string& what) {
-  for (int d = 0; d < Dim; ++d) {
-    EXPECT_EQ(a.position[d], b.position[d]) << what;
-    EXPECT_EQ(a.velocity[d], b.velocity[d]) << what;
-    EXPECT_EQ(a.displacement[d], b.displacement[d]) << what;
+/// Largest |a - b| over a field, relative to the largest |a| (0 for two zero fields).
+double relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  EXPECT_EQ(a.size(), b.size());
+  double scale = 0.0, difference = 0.0;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    scale = std::max(scale, std::abs(a[i]));
+    difference = std::max(difference, std::abs(a[i] - b[i]));
   }
-  for (int m = 0; m < stress_component_count<Dim>; ++m) EXPECT_EQ(a.stress[m], b.stress[m]) << what;
-  EXPECT_EQ(a.density, b.density) << what;
+  return scale > 0.0 ? difference / scale : difference;
+}
+
+/// Equal fields, to `tolerance` relative to each field's scale (0: bitwise).
+template <int Dim>
+void expect_same_fields(const ParticleSet<Dim>& a, const ParticleSet<Dim>& b, double tolerance,
+                        const std::string& what) {
+  auto check = [&](const std::vector<double>& x, const std::vector<double>& y, const char* field) {
+    if (tolerance == 0.0)
+      EXPECT_EQ(x, y) << what << ", " << field;
+    else
+      EXPECT_LE(relative_difference(x, y), tolerance) << what << ", " << field;
+  };
+  for (int d = 0; d < Dim; ++d) {
+    check(a.position[d], b.position[d], "position");
+    check(a.velocity[d], b.velocity[d], "velocity");
+    check(a.displacement[d], b.displacement[d], "displacement");
+  }
+  for (int m = 0; m < stress_component_count<Dim>; ++m) check(a.stress[m], b.stress[m], "stress");
+  check(a.density, b.density, "density");
 }
 
 template <int Dim>
@@ -177,13 +197,21 @@ void check_identical_runs(std::int64_t nodes, int steps, bool conservative) {
   std::int64_t searched = 0, kept = 0;
   const auto reference = run(0.0, 1, &searched);
   EXPECT_EQ(searched, steps + 1);  // without skin: every step
-  for (auto [skin, threads] : {std::pair{0.05, 1}, std::pair{0.05, 2}, std::pair{0.1, 2}}) {
-    const auto other = run(skin, threads, &kept);
-    const std::string what = "skin " + std::to_string(skin) + ", " + std::to_string(threads) + " threads";
-    expect_identical(reference.first, other.first, what + ", real");
-    expect_identical(reference.second, other.second, what + ", virtual");
+  // The pairs beyond 2h add exact zeros, but they shift the other pairs between the
+  // lanes of the packed sums (kernels/simd.hpp), so the runs agree to round-off, not
+  // bitwise; a missed or extra pair within 2h would change a weight by O(1). The same
+  // skin on 1 and 2 threads is bitwise the same run.
+  constexpr double kRoundOff = 1e-12;  // measured 5e-14
+  for (double skin : {0.05, 0.1}) {
+    const auto one_thread = run(skin, 1, &kept);
+    const std::string what = "skin " + std::to_string(skin);
+    expect_same_fields(reference.first, one_thread.first, kRoundOff, what + ", real");
+    expect_same_fields(reference.second, one_thread.second, kRoundOff, what + ", virtual");
     EXPECT_GT(kept, 1) << what;  // the rule fired during the run
     EXPECT_LT(kept, searched) << what;
+    const auto two_threads = run(skin, 2, nullptr);
+    expect_same_fields(one_thread.first, two_threads.first, 0.0, what + ", 2 threads, real");
+    expect_same_fields(one_thread.second, two_threads.second, 0.0, what + ", 2 threads, virtual");
   }
   // The particles did move across the support: the pairs within 2h changed.
   const double radius = kSupportFactor * 1.2 * kSpacing;
@@ -194,9 +222,9 @@ void check_identical_runs(std::int64_t nodes, int steps, bool conservative) {
   EXPECT_FALSE(first == last);
 }
 
-TEST(NeighborSkin, RunIsBitwiseTheRunWithoutSkin2D) { check_identical_runs<2>(14, 30, false); }
-TEST(NeighborSkin, RunIsBitwiseTheRunWithoutSkin3D) { check_identical_runs<3>(6, 20, false); }
-TEST(NeighborSkin, ConservativeMomentumRunIsBitwiseTheRunWithoutSkin) { check_identical_runs<2>(12, 20, true); }
+TEST(NeighborSkin, RunIsTheRunWithoutSkin2D) { check_identical_runs<2>(14, 30, false); }
+TEST(NeighborSkin, RunIsTheRunWithoutSkin3D) { check_identical_runs<3>(6, 20, false); }
+TEST(NeighborSkin, ConservativeMomentumRunIsTheRunWithoutSkin) { check_identical_runs<2>(12, 20, true); }
 
 TEST(NeighborSkin, RefusesASkinOutsideZeroToOne) {
   const MovingBlock<2> block(6, 1);
