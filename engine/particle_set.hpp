@@ -47,6 +47,22 @@ struct ParticleView {
 };
 
 /// A set of particles (real or virtual) in structure-of-arrays form.
+/// Throws std::invalid_argument (naming `who`) unless `order` holds each index
+/// 0 .. count - 1 exactly once: a duplicate would lose a particle in a permute.
+inline void require_permutation(const std::vector<std::uint32_t>& order, std::size_t count,
+                                const std::string& who) {
+  bool valid = order.size() == count;
+  std::vector<char> seen(valid ? count : 0, 0);
+  for (std::size_t k = 0; valid && k < order.size(); ++k) {
+    valid = order[k] < count && !seen[order[k]];
+    if (valid) seen[order[k]] = 1;
+  }
+  if (!valid)
+    throw std::invalid_argument(who + ": order has " + std::to_string(order.size()) + " entries for " +
+                                std::to_string(count) + " particles, or an index out of range or twice "
+                                "(a permutation holds each index once)");
+}
+
 template <int Dim>
 class ParticleSet {
  public:
@@ -103,10 +119,7 @@ class ParticleSet {
 
   /// Reorders every field so that new particle i is old particle order[i].
   void permute(const std::vector<std::uint32_t>& order) {
-    if (order.size() != size())
-      throw std::invalid_argument("ParticleSet::permute: order has " +
-                                  std::to_string(order.size()) + " entries for " +
-                                  std::to_string(size()) + " particles");
+    require_permutation(order, size(), "ParticleSet::permute");
     for_each_field([&order](auto& field) {
       auto reordered = field;
       for (std::size_t i = 0; i < order.size(); ++i) reordered[i] = field[order[i]];

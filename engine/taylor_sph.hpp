@@ -415,22 +415,9 @@ class TaylorSph {
   /// spatial_order does this itself when the order decays; exposed to impose an order.
   void permute_particles(const std::vector<std::uint32_t>& real_order,
                          const std::vector<std::uint32_t>& virtual_order) {
-    auto require_permutation = [](const std::vector<std::uint32_t>& order, std::size_t count,
-                                  const char* set) {
-      std::vector<char> seen(count, 0);
-      bool valid = order.size() == count;
-      for (std::size_t k = 0; valid && k < order.size(); ++k) {
-        valid = order[k] < count && !seen[order[k]];
-        if (valid) seen[order[k]] = 1;
-      }
-      if (!valid)
-        throw std::invalid_argument(std::string("solver: permute_particles: the ") + set +
-                                    " order is not a permutation of the " + std::to_string(count) +
-                                    " " + set + " particles (" + std::to_string(order.size()) +
-                                    " entries, each index once)");
-    };
-    require_permutation(real_order, real_.size(), "real");
-    require_permutation(virtual_order, virtual_.size(), "virtual");
+    // Both checked before anything moves (ParticleSet::permute checks again).
+    require_permutation(real_order, real_.size(), "solver: permute_particles: the real order");
+    require_permutation(virtual_order, virtual_.size(), "solver: permute_particles: the virtual order");
     permute_state(real_order, virtual_order);
     build_lists();
     sorted_spread_ = -1.0;  // the sorted order's spread, measured again at the next rebuild

@@ -154,7 +154,8 @@ TYPED_TEST(ParticleSetTest, PermuteReordersEveryFieldConsistently) {
   for (std::size_t p = 0; p < n; ++p) expect_same_particle(set, p, before, p);
 }
 
-// An order of the wrong length is rejected, and the set is left untouched.
+// An order of the wrong length, with a duplicate or out of range is rejected, and the
+// set is left untouched.
 TYPED_TEST(ParticleSetTest, PermuteWithWrongSizeThrows) {
   constexpr int dim = TypeParam::value;
   ParticleSet<dim> set;
@@ -164,6 +165,8 @@ TYPED_TEST(ParticleSetTest, PermuteWithWrongSizeThrows) {
   EXPECT_THROW(set.permute({0, 1, 2}), std::invalid_argument);
   EXPECT_THROW(set.permute({0, 1, 2, 3, 4}), std::invalid_argument);
   EXPECT_THROW(set.permute({}), std::invalid_argument);
+  EXPECT_THROW(set.permute({0, 1, 1, 3}), std::invalid_argument);  // a duplicate would lose particle 2
+  EXPECT_THROW(set.permute({0, 1, 2, 4}), std::invalid_argument);  // out of range
   EXPECT_EQ(set.mass, before.mass);
   EXPECT_EQ(set.id, before.id);
   ParticleSet<dim> empty;
