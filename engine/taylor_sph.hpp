@@ -192,16 +192,13 @@ struct SolverCounters {
   std::int64_t skin_checks = 0;
 };
 
-/// Index of stress component sigma_ij in the per-particle stress arrays.
-template <int Dim>
-constexpr int stress_index(int i, int j) {
-  if constexpr (Dim == 1) return 0;
-  else if constexpr (Dim == 2) return i == j ? i : 2;
-  else {
-    if (i == j) return i;
-    const int sum = i + j;  // (0,1) -> 3, (1,2) -> 4, (0,2) -> 5
-    return sum == 1 ? 3 : sum == 3 ? 4 : 5;
-  }
+/// exp(x), as std::exp to round-off (1-2 ulp), for the density update
+/// rho^{n+1} = rho^n exp(-dt tr L): there |x| is about dt |div v|, far below 2^-10, where
+/// the Taylor polynomial to x^5 is exact to x^6 / 720 < 2e-21 (relative), and costs a
+/// tenth of std::exp (two calls per pair of stencil rows); std::exp elsewhere.
+inline double exp_of_small(double x) {
+  if (!(std::abs(x) <= 0x1p-10)) return std::exp(x);
+  return 1.0 + x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0)))));
 }
 
 /// Orthonormal frame whose first column is the unit vector n.
@@ -461,11 +458,44 @@ class TaylorSph {
         if (!std::isfinite(set.stress[m][i])) return "stress";
       return nullptr;
     };
-    for (const auto* set : {&real_, &virtual_})
-      for (std::size_t i = 0; i < set->size(); ++i)
-        if (const char* field = non_finite(*set, i))
-          throw SolutionDiverged(diagnosis(step, dt, *set, i, std::string("has a non-finite ") + field));
-    const double energy = kinetic_energy() + strain_energy();
+    // One parallel pass over fixed blocks of particles (kStabilityBlock, not one per
+    // thread: the energy's sum order, hence its round-off, does not depend on the thread
+    // count): the first non-finite particle of each block and the block's energies,
+    // combined in block order. Was two serial passes (3 % of a 2D step, serial).
+    const std::size_t real_blocks = (real_.size() + kStabilityBlock - 1) / kStabilityBlock;
+    const std::size_t virtual_blocks = (virtual_.size() + kStabilityBlock - 1) / kStabilityBlock;
+    stability_blocks_.resize(real_blocks + virtual_blocks);
+    parallel_for(real_blocks + virtual_blocks, [&](std::size_t block) {
+      const bool is_real = block < real_blocks;
+      const ParticleSet<Dim>& set = is_real ? real_ : virtual_;
+      const std::size_t begin = (is_real ? block : block - real_blocks) * kStabilityBlock;
+      const std::size_t end = std::min(set.size(), begin + kStabilityBlock);
+      StabilityBlock result;
+      for (std::size_t i = begin; i < end; ++i)
+        if (non_finite(set, i) != nullptr) {
+          result.first_non_finite = i;
+          break;
+        }
+      if (is_real)
+        for (std::size_t i = begin; i < end; ++i) {
+          double v2 = 0.0;
+          for (int d = 0; d < Dim; ++d) v2 += set.velocity[d][i] * set.velocity[d][i];
+          result.kinetic += 0.5 * set.mass[i] * v2;
+          result.strain += set.volume[i] * material_.strain_energy_density(stress_of(set, i));
+        }
+      stability_blocks_[block] = result;
+    });
+    for (std::size_t block = 0; block < real_blocks + virtual_blocks; ++block)
+      if (const std::size_t i = stability_blocks_[block].first_non_finite; i != kNoParticle) {
+        const ParticleSet<Dim>& set = block < real_blocks ? real_ : virtual_;
+        throw SolutionDiverged(diagnosis(step, dt, set, i, std::string("has a non-finite ") + non_finite(set, i)));
+      }
+    double kinetic = 0.0, strain = 0.0;
+    for (std::size_t block = 0; block < real_blocks; ++block) {
+      kinetic += stability_blocks_[block].kinetic;
+      strain += stability_blocks_[block].strain;
+    }
+    const double energy = kinetic + strain;
     std::string runaway = std::isfinite(energy) ? "" : "the total energy overflowed";
     for (std::size_t k = 0; k < kRunawayGrowths.size(); ++k) {
       const double g = kRunawayGrowths[k];
@@ -597,11 +627,16 @@ class TaylorSph {
     Vec stress_divergence = Vec::Zero();  ///< div sigma
   };
 
-  /// Source values of one stencil row gathered into contiguous buffers (stress
-  /// components, then velocity, then density), padded like StencilWeights.
+  /// Source fields evaluate reads per neighbour: stress components, then velocity, then
+  /// density; the first `gradient_field_count` (the in-plane stress components and the
+  /// velocity) also enter the gradients.
+  static constexpr int velocity_field = stress_count, density_field = stress_count + Dim;
   static constexpr int gathered_count = stress_count + Dim + 1;
+  static constexpr int gradient_field_count = stress_count + Dim;
+  /// The gradient fields of one row, as loaded by the interpolation pass (padded like
+  /// StencilWeights), for the gradient pass.
   struct GatheredSource {
-    std::array<PackBuffer, gathered_count> field;
+    std::array<PackBuffer, gradient_field_count> field;
   };
   /// Per-thread scratch of the half and full steps.
   struct StepScratch {
@@ -610,58 +645,73 @@ class TaylorSph {
   };
 
   /// The body of evaluate, compiled once per instruction set (kernels/simd.hpp).
+  /// Two passes over the row, kLanes neighbours at a time. The interpolation pass loads
+  /// each source field straight into a pack from its array (load_indexed_pack; padding
+  /// lanes read the first neighbour again and have zero weights) and keeps the gradient
+  /// fields' packs for the gradient pass (before: a scalar gather of every field into
+  /// buffers first, 2.5x the instructions; same sums, same order: bitwise the same
+  /// results; bench/RESULTS.md, "Per-row overheads").
   [[gnu::always_inline]] static LocalState evaluate_in_packs(const ParticleView<Dim>& source,
                                                               std::span<const std::uint32_t> nb,
                                                               const StencilWeights<Dim>& w,
                                                               GatheredSource& gathered) {
-    constexpr int velocity_field = stress_count, density_field = stress_count + Dim;
     const std::size_t n = nb.size();
     const std::size_t padded = padded_size(n);
-    std::array<double*, gathered_count> f;
-    for (int m = 0; m < gathered_count; ++m) {
-      if (gathered.field[m].size() < padded) gathered.field[m].resize(padded);  // grows only
-      f[m] = gathered.field[m].data();
-    }
-    // Gather (the one scalar pass over the row) over a last pack zeroed first: zero padding.
-    if (padded > 0)
-      for (int m = 0; m < gathered_count; ++m) store_pack(f[m] + padded - kLanes, Pack{});
-    for (std::size_t k = 0; k < n; ++k) {
-      const std::uint32_t j = nb[k];
-      for (int m = 0; m < stress_count; ++m) f[m][k] = source.stress[m][j];
-      for (int d = 0; d < Dim; ++d) f[velocity_field + d][k] = source.velocity[d][j];
-      f[density_field][k] = source.density[j];
-    }
+    std::array<const double*, gathered_count> source_field;
+    for (int m = 0; m < stress_count; ++m) source_field[m] = source.stress[m];
+    for (int d = 0; d < Dim; ++d) source_field[velocity_field + d] = source.velocity[d];
+    source_field[density_field] = source.density;
+    if (gathered.field[0].size() < padded)  // all grow together, never shrink
+      for (auto& buffer : gathered.field) buffer.resize(padded);
+    std::array<double*, gradient_field_count> kept;
+    for (int m = 0; m < gradient_field_count; ++m) kept[m] = gathered.field[m].data();
+    const std::uint32_t* const index = nb.data();
+    const double* const value = w.value.data();
 
     // Interpolation: sum_J V_J Wn_IJ f_J, one partial sum per lane.
     std::array<Pack, gathered_count> sum{};
     for (std::size_t k = 0; k < padded; k += kLanes) {
-      const Pack c = load_pack(w.value.data() + k);
-      for (int m = 0; m < gathered_count; ++m) sum[m] += c * load_pack(f[m] + k);
+      std::array<std::uint32_t, kLanes> j;
+      if (k + kLanes <= n) {  // a full pack (all but the last of a row)
+        for (std::size_t l = 0; l < kLanes; ++l) j[l] = index[k + l];
+      } else {
+        for (std::size_t l = 0; l < kLanes; ++l) j[l] = k + l < n ? index[k + l] : index[0];
+      }
+      const Pack c = load_pack(value + k);
+      for (int m = 0; m < gathered_count; ++m) {
+        const Pack f = load_indexed_pack(source_field[m], j);
+        if (m < gradient_field_count) store_pack(kept[m] + k, f);
+        sum[m] += c * f;
+      }
     }
+    const auto interpolated = lane_sums(sum);
     LocalState s;
-    for (int m = 0; m < stress_count; ++m) s.stress[m] = lane_sum(sum[m]);
-    for (int d = 0; d < Dim; ++d) s.velocity[d] = lane_sum(sum[velocity_field + d]);
-    s.density = lane_sum(sum[density_field]);
+    for (int m = 0; m < stress_count; ++m) s.stress[m] = interpolated[m];
+    for (int d = 0; d < Dim; ++d) s.velocity[d] = interpolated[velocity_field + d];
+    s.density = interpolated[density_field];
 
     // Gradients relative to the interpolated value: sum_J V_J Gn_IJ (f_J - f_I).
-    std::array<Pack, Dim * Dim> velocity_gradient{};  // (i, l) at i * Dim + l
-    std::array<Pack, Dim> divergence{};
+    std::array<const double*, Dim> gradient;
+    for (int l = 0; l < Dim; ++l) gradient[l] = w.gradient[l].data();
+    // Partial sums: velocity gradient (i, l) at i * Dim + l, then the divergence.
+    std::array<Pack, Dim * Dim + Dim> derivative{};
     for (std::size_t k = 0; k < padded; k += kLanes) {
       std::array<Pack, Dim> g;
-      for (int l = 0; l < Dim; ++l) g[l] = load_pack(w.gradient[l].data() + k);
+      for (int l = 0; l < Dim; ++l) g[l] = load_pack(gradient[l] + k);
       for (int i = 0; i < Dim; ++i) {
-        const Pack dv = load_pack(f[velocity_field + i] + k) - s.velocity[i];
-        for (int l = 0; l < Dim; ++l) velocity_gradient[i * Dim + l] += dv * g[l];
+        const Pack dv = load_pack(kept[velocity_field + i] + k) - s.velocity[i];
+        for (int l = 0; l < Dim; ++l) derivative[i * Dim + l] += dv * g[l];
       }
       for (int i = 0; i < Dim; ++i)
         for (int l = 0; l < Dim; ++l) {
           const int m = stress_index<Dim>(i, l);
-          divergence[i] += (load_pack(f[m] + k) - s.stress[m]) * g[l];
+          derivative[Dim * Dim + i] += (load_pack(kept[m] + k) - s.stress[m]) * g[l];
         }
     }
+    const auto derivatives = lane_sums(derivative);
     for (int i = 0; i < Dim; ++i) {
-      for (int l = 0; l < Dim; ++l) s.velocity_gradient(i, l) = lane_sum(velocity_gradient[i * Dim + l]);
-      s.stress_divergence[i] = lane_sum(divergence[i]);
+      for (int l = 0; l < Dim; ++l) s.velocity_gradient(i, l) = derivatives[i * Dim + l];
+      s.stress_divergence[i] = derivatives[Dim * Dim + i];
     }
     return s;
   }
@@ -749,7 +799,7 @@ class TaylorSph {
                                            settings_.body_force[d] -
                                            settings_.damping * s.velocity[d]);
           const double density =
-              moving ? s.density * std::exp(-half_dt * s.velocity_gradient.trace()) : s.density;
+              moving ? s.density * exp_of_small(-half_dt * s.velocity_gradient.trace()) : s.density;
           target.density[q] = density;
           target.volume[q] = target.mass[q] / density;
         }));
@@ -820,7 +870,7 @@ class TaylorSph {
                 dt * (s.stress_divergence[d] / s.density + settings_.body_force[d] -
                       settings_.damping * s.velocity[d]);
           if (moving) {
-            target.density[r] *= std::exp(-dt * s.velocity_gradient.trace());
+            target.density[r] *= exp_of_small(-dt * s.velocity_gradient.trace());
             target.volume[r] = target.mass[r] / target.density[r];
           }
         }));
@@ -1711,6 +1761,15 @@ class TaylorSph {
   std::vector<BoundaryCondition<Dim>> boundaries_;
   double time_ = 0.0;
   SolverCounters counters_;
+  /// check_stability's pass: per block of kStabilityBlock particles (real blocks, then
+  /// virtual ones), the first non-finite particle and the real blocks' energies.
+  static constexpr std::size_t kStabilityBlock = 4096;
+  static constexpr std::size_t kNoParticle = static_cast<std::size_t>(-1);
+  struct StabilityBlock {
+    std::size_t first_non_finite = kNoParticle;
+    double kinetic = 0.0, strain = 0.0;
+  };
+  std::vector<StabilityBlock> stability_blocks_;
   double previous_energy_ = 0.0;   ///< total energy after the last step (check_stability)
   std::array<int, kRunawayGrowths.size()> energy_growth_steps_{};  ///< consecutive, per growth
   std::vector<double> largest_energy_;  ///< largest energy so far, after each recent step

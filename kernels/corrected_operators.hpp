@@ -66,7 +66,6 @@ struct StencilWeights {
   PackBuffer value;                     ///< V_J Wn_IJ
   std::array<PackBuffer, Dim> gradient;  ///< component d of V_J Gn_IJ
   std::array<PackBuffer, Dim> offset;    ///< component d of x_J - x_I (scratch)
-  PackBuffer volume;                     ///< V_J (scratch)
 
   std::size_t size() const { return count_; }
   Eigen::Matrix<double, Dim, 1> gradient_of(std::size_t k) const {
@@ -81,7 +80,6 @@ struct StencilWeights {
     const std::size_t padded = padded_size(n);
     if (value.size() >= padded) return;
     value.resize(padded);
-    volume.resize(padded);
     for (int d = 0; d < Dim; ++d) gradient[d].resize(padded), offset[d].resize(padded);
   }
 
@@ -94,17 +92,45 @@ struct StencilWeights {
 /// (Hadamard's ratio, 1 for a diagonal matrix, round-off for a rank-deficient one,
 /// whose cofactors are round-off too, so that the explicit inverse of a rank-1 matrix
 /// can look well scaled), and the infinity-norm condition number of the inverse.
+/// For N = 2 and 3 (the 2D and 3D correction matrices, the 2D moment matrix: one of
+/// each per stencil row) the determinant and the inverse come from the cofactors of the
+/// upper triangle in closed form (the matrix is symmetric: 3 of 4 and 6 of 9 cofactors),
+/// one division; Eigen's general determinant() and inverse() cost 2.5x the instructions
+/// (bench/RESULTS.md, "Per-row overheads"). Same tests, same results to round-off.
 template <int N>
-Eigen::Matrix<double, N, N> checked_inverse(const Eigen::Matrix<double, N, N>& m, bool& ok) {
+[[gnu::always_inline]] inline Eigen::Matrix<double, N, N> checked_inverse(const Eigen::Matrix<double, N, N>& m,
+                                                                          bool& ok) {
   Eigen::Matrix<double, N, N> inverse;
   ok = false;
   const double norm = m.cwiseAbs().rowwise().sum().maxCoeff();
   if (!(norm > 0.0) || !std::isfinite(norm)) return inverse.setZero();
   const double diagonal_product = m.diagonal().prod();
-  const double det = m.determinant();
-  if (!(diagonal_product > 0.0) || !(det > kMinHadamardRatio * diagonal_product))
-    return inverse.setZero();
-  inverse = m.inverse();
+  if constexpr (N == 2 || N == 3) {
+    // Cofactors c_ab of the symmetric matrix (upper triangle read), det = row 0 . c_0.
+    double det = 0.0;
+    if constexpr (N == 2) {
+      inverse(0, 0) = m(1, 1);
+      inverse(1, 1) = m(0, 0);
+      inverse(0, 1) = inverse(1, 0) = -m(0, 1);
+      det = m(0, 0) * m(1, 1) - m(0, 1) * m(0, 1);
+    } else {
+      inverse(0, 0) = m(1, 1) * m(2, 2) - m(1, 2) * m(1, 2);
+      inverse(1, 1) = m(0, 0) * m(2, 2) - m(0, 2) * m(0, 2);
+      inverse(2, 2) = m(0, 0) * m(1, 1) - m(0, 1) * m(0, 1);
+      inverse(0, 1) = inverse(1, 0) = m(0, 2) * m(1, 2) - m(0, 1) * m(2, 2);
+      inverse(0, 2) = inverse(2, 0) = m(0, 1) * m(1, 2) - m(0, 2) * m(1, 1);
+      inverse(1, 2) = inverse(2, 1) = m(0, 1) * m(0, 2) - m(0, 0) * m(1, 2);
+      det = m(0, 0) * inverse(0, 0) + m(0, 1) * inverse(0, 1) + m(0, 2) * inverse(0, 2);
+    }
+    if (!(diagonal_product > 0.0) || !(det > kMinHadamardRatio * diagonal_product))
+      return inverse.setZero();
+    inverse *= 1.0 / det;
+  } else {
+    const double det = m.determinant();
+    if (!(diagonal_product > 0.0) || !(det > kMinHadamardRatio * diagonal_product))
+      return inverse.setZero();
+    inverse = m.inverse();
+  }
   const double condition = norm * inverse.cwiseAbs().rowwise().sum().maxCoeff();
   ok = std::isfinite(condition) && condition < kMaxConditionNumber;
   return inverse;
@@ -139,92 +165,98 @@ template <int Dim, class Kernel>
   weights.resize(n);
   const std::size_t padded = padded_size(n);
 
-  // Gather (the one scalar pass): offsets x_J - x_I and volumes into contiguous buffers,
-  // over a last pack zeroed first, so the padding is zero (volume 0: zero weight, zero
-  // gradient, zero moments).
-  if (padded > 0) {
-    for (int d = 0; d < Dim; ++d) store_pack(weights.offset[d].data() + padded - kLanes, Pack{});
-    store_pack(weights.volume.data() + padded - kLanes, Pack{});
-  }
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::uint32_t j = neighbors[k];
-    for (int d = 0; d < Dim; ++d) weights.offset[d][k] = source.coordinate[d][j] - x_query[d];
-    weights.volume[k] = source_volume[j];
-  }
-
   // Pass 1, kLanes pairs at a time: kernel values, raw gradients
   // grad_I W(x_I - x_J) = -(W'(r) / r) (x_J - x_I), and the moment sums, one partial
   // sum per lane. With p_ab = o_a o_b (o = x_J - x_I) both matrices are symmetric:
   //   correction C = sum_J V_J grad_I W_IJ (x) o_J = sum_J s_J p_J, s_J = -V_J W'/r,
   //   moments: sum_J V_J W_IJ [1; o_J] [1; o_J]^T (scaled by 1/h after the loop).
+  // The coordinates and volumes of each pack of neighbours are loaded straight into
+  // lanes (load_indexed_pack; no gather buffer: bench/RESULTS.md, "Per-row overheads");
+  // the padding lanes of the last pack read the first neighbour again with volume 0:
+  // zero weight, zero gradient, zero moments. The offsets are kept for the linear pass.
   const double inverse_h = 1.0 / h;
   const double value_factor = Kernel::value_factor(h);
   const double slope_factor = Kernel::slope_factor(h);
-  Pack kernel_sum{};
-  std::array<Pack, Dim> first{};
-  std::array<Pack, pairs> second{}, correction{};
+  const std::uint32_t* const index = neighbors.data();
+  std::array<double, Dim> x_i;  // a local copy: the stores below cannot alias it
+  for (int d = 0; d < Dim; ++d) x_i[d] = x_query[d];
+  double* const value = weights.value.data();
+  std::array<double*, Dim> offset, gradient;
+  for (int d = 0; d < Dim; ++d) offset[d] = weights.offset[d].data(), gradient[d] = weights.gradient[d].data();
+  // Partial sums, one array so that their lanes are summed four at a time (lane_sums):
+  // [0] kernel sum, [1, 1 + Dim) first moments, then the upper triangles of the second
+  // moments and of the correction matrix.
+  constexpr int first_at = 1, second_at = 1 + Dim, correction_at = 1 + Dim + pairs;
+  std::array<Pack, 1 + Dim + 2 * pairs> sum{};
   for (std::size_t k = 0; k < padded; k += kLanes) {
+    std::array<std::uint32_t, kLanes> j;
+    Pack volume;
+    if (k + kLanes <= n) {  // a full pack (all but the last of a row)
+      for (std::size_t l = 0; l < kLanes; ++l) j[l] = index[k + l];
+      volume = load_indexed_pack(source_volume, j);
+    } else {
+      for (std::size_t l = 0; l < kLanes; ++l) j[l] = k + l < n ? index[k + l] : index[0];
+      volume = load_indexed_pack(source_volume, j);
+      for (std::size_t l = n - k; l < kLanes; ++l) volume[l] = 0.0;
+    }
     std::array<Pack, Dim> o;
-    for (int d = 0; d < Dim; ++d) o[d] = load_pack(weights.offset[d].data() + k);
+    for (int d = 0; d < Dim; ++d) {
+      o[d] = load_indexed_pack(source.coordinate[d], j) - x_i[d];
+      store_pack(offset[d] + k, o[d]);
+    }
     Pack r2 = o[0] * o[0];
     for (int d = 1; d < Dim; ++d) r2 += o[d] * o[d];
     const Pack q = square_root(r2) * inverse_h;
-    const Pack volume = load_pack(weights.volume.data() + k);
     const Pack w = volume * (value_factor * Kernel::shape(q));
     const Pack s = volume * (-slope_factor * Kernel::slope_over_q(q));
-    store_pack(weights.value.data() + k, w);
-    for (int d = 0; d < Dim; ++d) store_pack(weights.gradient[d].data() + k, s * o[d]);
-    kernel_sum += w;
+    store_pack(value + k, w);
+    for (int d = 0; d < Dim; ++d) store_pack(gradient[d] + k, s * o[d]);
+    sum[0] += w;
     int ab = 0;
     for (int a = 0; a < Dim; ++a) {
-      first[a] += w * o[a];
+      sum[first_at + a] += w * o[a];
       for (int b = a; b < Dim; ++b, ++ab) {
         const Pack p = o[a] * o[b];
-        second[ab] += w * p;
-        correction[ab] += s * p;
+        sum[second_at + ab] += w * p;
+        sum[correction_at + ab] += s * p;
       }
     }
   }
+  const auto total = lane_sums(sum);
   Moments moments;  // [1; d] [1; d]^T weighted by V_J W_IJ, d = o / h
   Mat correction_matrix;
-  moments(0, 0) = lane_sum(kernel_sum);
+  moments(0, 0) = total[0];
   int ab = 0;
   for (int a = 0; a < Dim; ++a) {
-    moments(0, a + 1) = moments(a + 1, 0) = lane_sum(first[a]) * inverse_h;
+    moments(0, a + 1) = moments(a + 1, 0) = total[first_at + a] * inverse_h;
     for (int b = a; b < Dim; ++b, ++ab) {
-      moments(a + 1, b + 1) = moments(b + 1, a + 1) = lane_sum(second[ab]) * (inverse_h * inverse_h);
-      correction_matrix(a, b) = correction_matrix(b, a) = lane_sum(correction[ab]);
+      moments(a + 1, b + 1) = moments(b + 1, a + 1) = total[second_at + ab] * (inverse_h * inverse_h);
+      correction_matrix(a, b) = correction_matrix(b, a) = total[correction_at + ab];
     }
   }
 
-  // Interpolation weights.
+  // Interpolation weights: scale factors of the row, applied below.
+  enum class Scale { zero, shepard, linear } scale = Scale::zero;
+  double a = 0.0;  // linear: coefficients (a, b) with moments * (a, b) = e_0 (reproduces
+  std::array<double, Dim> b_over_h{};  // 1 and x): W~_IJ = W_IJ (a + b . o_J / h)
   const double kernel_total = moments(0, 0);
   if (!(kernel_total > 0.0)) {
     status.no_neighbors = true;
-    std::fill(weights.value.begin(), weights.value.begin() + static_cast<std::ptrdiff_t>(padded), 0.0);
   } else {
-    bool linear_ok = false;
     if (interpolation == InterpolationKind::linear) {
+      bool linear_ok = false;
       const Moments inverse = checked_inverse<Dim + 1>(moments, linear_ok);
       if (linear_ok) {
-        // Coefficients (a, b) with moments * (a, b) = e_0: reproduces 1 and x;
-        // W~_IJ = W_IJ (a + b . o_J / h).
-        const double a = inverse(0, 0);
-        std::array<double, Dim> b_over_h;
+        scale = Scale::linear;
+        a = inverse(0, 0);
         for (int d = 0; d < Dim; ++d) b_over_h[d] = inverse(d + 1, 0) * inverse_h;
-        for (std::size_t k = 0; k < padded; k += kLanes) {
-          Pack factor = broadcast(a);
-          for (int d = 0; d < Dim; ++d) factor += b_over_h[d] * load_pack(weights.offset[d].data() + k);
-          store_pack(weights.value.data() + k, load_pack(weights.value.data() + k) * factor);
-        }
       } else {
         status.interpolation_fallback = true;
       }
     }
-    if (!linear_ok) {
-      const double inverse_sum = 1.0 / kernel_total;
-      for (std::size_t k = 0; k < padded; k += kLanes)
-        store_pack(weights.value.data() + k, load_pack(weights.value.data() + k) * inverse_sum);
+    if (scale != Scale::linear) {
+      scale = Scale::shepard;
+      a = 1.0 / kernel_total;
     }
   }
 
@@ -235,13 +267,23 @@ template <int Dim, class Kernel>
     inverse = symmetric_pseudo_inverse<Dim>(correction_matrix);
     status.gradient_fallback = n > 0;
   }
+  // One pass over the row for both (they were two).
   for (std::size_t k = 0; k < padded; k += kLanes) {
+    Pack w = load_pack(value + k);
+    if (scale == Scale::linear) {
+      Pack factor = broadcast(a);
+      for (int d = 0; d < Dim; ++d) factor += b_over_h[d] * load_pack(offset[d] + k);
+      w *= factor;
+    } else {
+      w = scale == Scale::shepard ? w * a : Pack{};
+    }
+    store_pack(value + k, w);
     std::array<Pack, Dim> raw;
-    for (int d = 0; d < Dim; ++d) raw[d] = load_pack(weights.gradient[d].data() + k);
-    for (int a = 0; a < Dim; ++a) {
-      Pack g = inverse(a, 0) * raw[0];
-      for (int b = 1; b < Dim; ++b) g += inverse(a, b) * raw[b];
-      store_pack(weights.gradient[a].data() + k, g);
+    for (int d = 0; d < Dim; ++d) raw[d] = load_pack(gradient[d] + k);
+    for (int r = 0; r < Dim; ++r) {
+      Pack g = inverse(r, 0) * raw[0];
+      for (int c = 1; c < Dim; ++c) g += inverse(r, c) * raw[c];
+      store_pack(gradient[r] + k, g);
     }
   }
   return status;
