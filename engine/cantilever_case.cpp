@@ -34,6 +34,7 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
   positive("density", s.density);
   positive("end_time", s.end_time);
   positive("tolerance", s.tolerance);
+  positive("kinetic_tolerance", s.kinetic_tolerance);
   if (!(s.poisson_ratio > -1.0 && s.poisson_ratio < 0.5))
     errors.push_back({"poisson_ratio", format_number(s.poisson_ratio), "must lie in (-1, 0.5)"});
   if (!std::isfinite(s.load) || s.load == 0.0)
@@ -77,6 +78,8 @@ std::vector<InputError> validate(const CantileverSettings<Dim>& s) {
                       "(force runs it anyway)"});
   if (!(s.hourglass >= 0.0 && s.hourglass < 1.0))
     errors.push_back({"hourglass", format_number(s.hourglass), "must lie in [0, 1)"});
+  if (Dim != 3 && s.free_edge_uniaxial)
+    errors.push_back({"free_edge_uniaxial", "true", "applies to the edges of the 3D beam only"});
   if (!(s.hourglass_stiffness >= 0.0 && s.hourglass_stiffness <= 1.0))
     errors.push_back({"hourglass_stiffness", format_number(s.hourglass_stiffness),
                       "must lie in [0, 1] (0: off)"});
@@ -204,8 +207,11 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
   result.real_particles = solver.real().size();
   result.virtual_particles = solver.virtual_particles().size();
   const double dt = result.time_step;
-  // Converged: after the ramp, the tip moves slower than tolerance x (tip deflection / T1).
+  // Converged: after the ramp, the tip moves slower than tolerance x (tip deflection / T1)
+  // and the kinetic energy is below kinetic_tolerance x the work of the load.
   const double velocity_tolerance = s.tolerance * std::abs(result.tip_exact) / period;
+  result.load_work = std::abs(s.load * result.tip_exact);
+  const double kinetic_limit = s.kinetic_tolerance * result.load_work;
   const auto start = std::chrono::steady_clock::now();
   std::int64_t report_every = std::max<std::int64_t>(1, static_cast<std::int64_t>(0.02 / dt));
   // The result of the current state (fields, errors, timing).
@@ -213,6 +219,7 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
     const auto stop = std::chrono::steady_clock::now();
     out.wall_seconds = std::chrono::duration<double>(stop - start).count();
     out.time = solver.time();
+    out.kinetic_energy = solver.kinetic_energy();
     out.steps = solver.counters().steps;
     out.counters = solver.counters();
     out.particle_steps_per_second = static_cast<double>(out.real_particles) *
@@ -233,23 +240,27 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
     out.axis_l2_error_percent = relative_l2_percent(out.axis_uy, out.axis_exact);
     out.initial_position.clear();
     out.displacement.clear();
+    out.velocity.clear();
     out.stress.clear();
     for (std::size_t i = 0; i < r.size(); ++i) {
-      std::array<double, 3> x{}, u{};
+      std::array<double, 3> x{}, u{}, v{};
       std::array<double, 6> sigma{};
       for (int d = 0; d < Dim; ++d) {
         x[static_cast<std::size_t>(d)] = r.initial_position[d][i];
         u[static_cast<std::size_t>(d)] = r.displacement[d][i];
+        v[static_cast<std::size_t>(d)] = r.velocity[d][i];
       }
       for (int m = 0; m < stress_component_count<Dim>; ++m) sigma[static_cast<std::size_t>(m)] = r.stress[m][i];
       out.initial_position.push_back(x);
       out.displacement.push_back(u);
+      out.velocity.push_back(v);
       out.stress.push_back(sigma);
     }
   };
   // The last good state, kept for the output of a run that diverges (issue 6).
   CantileverResult last_good = result;
   collect(last_good);
+  std::vector<std::array<double, 3>> history{{0.0, 0.0, 0.0}};
   while (solver.time() < s.end_time) {
     try {
       solver.step(dt);
@@ -258,15 +269,22 @@ CantileverResult run_cantilever(const CantileverSettings<Dim>& s) {
     }
     const double tip_velocity = std::abs(solver.real().velocity[1][tip]);
     if (solver.counters().steps % report_every == 0) {
-      if (s.progress) s.progress(solver.time(), solver.real().displacement[1][tip], solver.kinetic_energy());
+      const double kinetic = solver.kinetic_energy();
+      if (s.progress) s.progress(solver.time(), solver.real().displacement[1][tip], kinetic);
+      history.push_back({solver.time(), solver.real().displacement[1][tip], kinetic});
       collect(last_good);
+      last_good.history = history;
     }
-    if (solver.time() > ramp + 0.25 * period && tip_velocity < velocity_tolerance) {
+    // The kinetic energy (a sum over the particles) only once the tip is slow.
+    if (solver.time() > ramp + 0.25 * period && tip_velocity < velocity_tolerance &&
+        solver.kinetic_energy() < kinetic_limit) {
       result.converged = true;
       break;
     }
   }
   collect(result);
+  history.push_back({solver.time(), solver.real().displacement[1][tip], solver.kinetic_energy()});
+  result.history = std::move(history);
   return result;
 }
 

@@ -79,6 +79,7 @@ if [ -n "$cantilever" ]; then
   expect_cantilever "young_modulus = -1 is invalid" --E -1
   expect_cantilever "plane: .*not in" --plane membrane
   expect_cantilever "cfl = 1.5 is invalid: must lie in \(0, 1\].*force" --cfl 1.5
+  expect_cantilever "free_edge_uniaxial = true is invalid: applies to the edges of the 3D beam only" --free-edge-uniaxial
   expect_cantilever "alpha = 2.5 is invalid: must lie in \(0.5, 1.9\] for the cubic_spline kernel" --alpha 2.5
   expect_cantilever "alpha = 2.5 is invalid: must lie in \(0.5, 2.4\] for the quintic_spline kernel" --alpha 2.5 \
     --kernel quintic_spline --nx 21

@@ -106,6 +106,12 @@ TEST_F(CaseFileTest, ShippedCasesResolveToTheSeedSettings) {
   EXPECT_EQ(c.boundary_particles[2].second, 11u);  // the clamp: the whole face x = 0
   EXPECT_EQ(c.boundary_particles[1].second, 11u);  // the tip face, corners included
   EXPECT_EQ(c.boundary_particles[0].second, 198u); // top and bottom, less the four corners
+  // The 3D case holds tsph-cantilever's 3D defaults (README, The cantilever).
+  const CaseFile solid = load_case((kCases / "cantilever_3d.toml").string());
+  EXPECT_TRUE(solid.wall_gradient);
+  EXPECT_EQ(solid.hourglass_stiffness, 0.05);
+  EXPECT_TRUE(solid.surface_extrapolation);
+  EXPECT_TRUE(solid.free_edge_uniaxial);
 }
 
 // [solver]: neighbor_search "auto" by default, the two searches by name, anything else
@@ -199,6 +205,8 @@ TEST_F(CaseFileTest, WrongTypeOutOfRangeAndMissingKeys) {
   e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nvelocity_wall = \"wall\""));
   EXPECT_NE(e.find("method.velocity_wall = 'wall' is invalid: must be one of: characteristics, wall_gradient"),
             std::string::npos) << e;
+  e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nfree_edge_uniaxial = true"));
+  EXPECT_NE(e.find("method.free_edge_uniaxial = true is invalid: applies to dimension = 3 only"), std::string::npos) << e;
   e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nhourglass_stiffness = -0.1"));
   EXPECT_NE(e.find("method.hourglass_stiffness = -0.1 is invalid: must lie in [0, 1]"), std::string::npos) << e;
 }

@@ -4,7 +4,8 @@
 //   tsph-cantilever [--dim 2|3] [--plane stress|strain] [--nx 101] [options]
 //
 // Writes axis.csv (x, u_y, exact u_y), particles.csv (every real particle: initial
-// position, displacement, stress) and summary.json (tip deflection against the exact
+// position, displacement, stress), history.csv (time, tip u_y, kinetic energy every
+// 0.02 s) and summary.json (tip deflection against the exact
 // value, L2 error along the axis, steps, wall time, particle-steps per second).
 // Exit status: 0 success (converged), 2 bad input, 3 not converged or diverged (the
 // diagnosis on stderr; the files then hold the last good state, recorded every 0.02 s
@@ -54,13 +55,14 @@ struct Options {
   double young = 8e7, poisson = 0.3, density = 2000.0;
   double load = 0.0;  // 0: the case's default (1000 N in 2D, 100 N in 3D)
   double alpha = 0.6, cfl = 0.9, damping = -1.0, ramp = -1.0, hourglass = 0.02;
-  // The next three default to the case's (CantileverSettings): in 2D the wall clamp, the
-  // stiffness 0.05 and the surface extrapolation; in 3D none of them.
+  // The next ones default to the case's (CantileverSettings): the wall clamp, the
+  // stiffness 0.05 and the surface extrapolation, and in 3D the free edges' uniaxial
+  // stress.
   std::optional<double> hourglass_stiffness;
   std::string clamp = "default";
   bool surface_extrapolation = false, no_surface_extrapolation = false;
-  bool free_edge_uniaxial = false;
-  double end_time = 3.0, tolerance = 1e-5;
+  bool free_edge_uniaxial = false, no_free_edge_uniaxial = false;
+  double end_time = 3.0, tolerance = 1e-5, kinetic_tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
   bool quiet = false;
@@ -85,31 +87,38 @@ void write_results(const Options& o, const CantileverSettings<Dim>& s, const Can
     fmt::format_to(std::back_inserter(axis), "{:.17g},{:.17g},{:.17g}\n", r.axis_x[k],
                    r.axis_uy[k], r.axis_exact[k]);
   write_file_atomically(out / "axis.csv", axis);
-  std::string particles = "x0,y0,z0,ux,uy,uz,s0,s1,s2,s3,s4,s5\n";
+  std::string particles = "x0,y0,z0,ux,uy,uz,vx,vy,vz,s0,s1,s2,s3,s4,s5\n";
   for (std::size_t i = 0; i < r.initial_position.size(); ++i) {
     const auto& x = r.initial_position[i];
     const auto& u = r.displacement[i];
+    const auto& v = r.velocity[i];
     const auto& sg = r.stress[i];
-    fmt::format_to(std::back_inserter(particles), "{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n",
-                    x[0], x[1], x[2], u[0], u[1], u[2], sg[0], sg[1], sg[2], sg[3], sg[4], sg[5]);
+    fmt::format_to(std::back_inserter(particles), "{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.6g},{:.6g},{:.6g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g}\n",
+                    x[0], x[1], x[2], u[0], u[1], u[2], v[0], v[1], v[2], sg[0], sg[1], sg[2], sg[3], sg[4], sg[5]);
   }
   write_file_atomically(out / "particles.csv", particles);
+  std::string history = "t,tip_uy,kinetic_energy\n";
+  for (const auto& h : r.history)
+    fmt::format_to(std::back_inserter(history), "{:.9g},{:.9e},{:.6e}\n", h[0], h[1], h[2]);
+  write_file_atomically(out / "history.csv", history);
   write_file_atomically(out / "summary.json", fmt::format(
       "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
       " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
       " \"hourglass\": {}, \"hourglass_stiffness\": {}, \"clamp\": \"{}\", \"surface_extrapolation\": {},\n"
+      " \"free_edge_uniaxial\": {}, \"tolerance\": {}, \"kinetic_tolerance\": {},\n"
       " \"real_particles\": {}, \"virtual_particles\": {},\n"
       " \"status\": \"{}\", \"message\": \"{}\",\n"
       " \"converged\": {}, \"time\": {:.6f}, \"steps\": {}, \"dt\": {:.6e},\n"
       " \"tip_deflection\": {:.9e}, \"tip_exact\": {:.9e}, \"tip_error_percent\": {:.6f},\n"
-      " \"axis_l2_error_percent\": {:.6f}, \"wall_seconds\": {:.3f},\n"
+      " \"axis_l2_error_percent\": {:.6f}, \"kinetic_energy\": {:.6e}, \"load_work\": {:.6e},\n"
+      " \"wall_seconds\": {:.3f},\n"
       " \"particle_steps_per_second\": {:.6e}, \"threads\": {},\n"
       " \"gradient_fallbacks\": {}, \"interpolation_fallbacks\": {}}}\n",
       Dim, Dim == 2 ? o.plane : "none", s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1, dx,
       s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, s.hourglass_stiffness, clamp_name(s),
-      s.surface_extrapolation, r.real_particles, r.virtual_particles,
+      s.surface_extrapolation, s.free_edge_uniaxial, s.tolerance, s.kinetic_tolerance, r.real_particles, r.virtual_particles,
       status, message, r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
-      r.tip_error_percent, r.axis_l2_error_percent, r.wall_seconds, r.particle_steps_per_second,
+      r.tip_error_percent, r.axis_l2_error_percent, r.kinetic_energy, r.load_work, r.wall_seconds, r.particle_steps_per_second,
       thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks));
 }
 
@@ -144,8 +153,10 @@ int run(const Options& o) {
   if (o.surface_extrapolation) s.surface_extrapolation = true;
   if (o.no_surface_extrapolation) s.surface_extrapolation = false;
   if (o.free_edge_uniaxial) s.free_edge_uniaxial = true;
+  if (o.no_free_edge_uniaxial) s.free_edge_uniaxial = false;
   s.end_time = o.end_time;
   s.tolerance = o.tolerance;
+  s.kinetic_tolerance = o.kinetic_tolerance;
   if (const auto errors = validate(s); !errors.empty()) {
     for (const auto& e : errors) fmt::print(stderr, "tsph-cantilever: error: {}\n", e.message());
     return kExitBadInput;
@@ -153,11 +164,13 @@ int run(const Options& o) {
   const CantileverExact<Dim> exact(s);
   if (!o.quiet) {
     fmt::print("{}D cantilever{}: {} x {}{} real particles, dx = {} m, alpha = {}, CFL = {}, "
-               "hourglass = {}, hourglass stiffness = {}, clamp: {}, surface extrapolation {}, {}\n",
+               "hourglass = {}, hourglass stiffness = {}, clamp: {}, surface extrapolation {}{}, {}\n",
                Dim, Dim == 2 ? (o.plane == "strain" ? " (plane strain)" : " (plane stress)") : "",
                s.nodes_x, s.nodes_y, Dim == 3 ? fmt::format(" x {}", s.nodes_z) : "", dx, s.alpha,
                s.cfl, s.hourglass, s.hourglass_stiffness, clamp_name(s),
-               s.surface_extrapolation ? "on" : "off", o.kinematics);
+               s.surface_extrapolation ? "on" : "off",
+               Dim == 3 ? (s.free_edge_uniaxial ? ", free edges uniaxial" : ", free edges NOT uniaxial") : "",
+               o.kinematics);
     fmt::print("exact tip deflection {:.6f} m; first mode period {:.3f} s\n",
                exact.tip_deflection(), 2.0 * M_PI / s.first_mode_frequency());
     auto last = std::make_shared<std::chrono::steady_clock::time_point>(std::chrono::steady_clock::now());
@@ -185,8 +198,9 @@ int run(const Options& o) {
                r.converged ? "converged" : "NOT converged", r.steps, r.time, r.wall_seconds,
                r.particle_steps_per_second);
     fmt::print("tip deflection {:.6f} m, exact {:.6f} m: error {:.3f} %; L2 error of u_y along "
-               "the axis {:.3f} %\noutput in {}\n",
-               r.tip_deflection, r.tip_exact, r.tip_error_percent, r.axis_l2_error_percent, o.out);
+               "the axis {:.3f} %; kinetic energy {:.3e} J ({:.2e} of the load's work)\noutput in {}\n",
+               r.tip_deflection, r.tip_exact, r.tip_error_percent, r.axis_l2_error_percent,
+               r.kinetic_energy, r.kinetic_energy / r.load_work, o.out);
   }
   return r.converged ? 0 : kExitNotConverged;
 }
@@ -223,25 +237,34 @@ int main(int argc, char** argv) {
   app.add_option("--hourglass-stiffness", o.hourglass_stiffness,
                  "hourglass stiffness kappa in [0, 1] (0: off; force on the real modes the virtual "
                  "particles cannot see; diverges above about 0.25 at alpha 0.6, CFL 0.9). "
-                 "Default: 0.05 in 2D, 0 in 3D");
+                 "Default: 0.05");
   app.add_option("--clamp", o.clamp,
                  "stress of the clamped particles: characteristics | wall-gradient (bulk update "
                  "with the half-step velocity gradient taken relative to the wall velocity). "
-                 "Default: wall-gradient in 2D, characteristics in 3D")
+                 "Default: wall-gradient")
       ->check(CLI::IsMember({"characteristics", "wall-gradient"}));
   auto* extrapolate = app.add_flag(
       "--surface-extrapolation", o.surface_extrapolation,
       "free-surface tangential velocity gradient extrapolated from the virtual row to the surface "
-      "(SolverSettings::surface_extrapolation). Default: on in 2D, off in 3D");
+      "(SolverSettings::surface_extrapolation). Default: on");
   app.add_flag("--no-surface-extrapolation", o.no_surface_extrapolation,
                "turn the surface extrapolation off (the 2D defaults before 2026-11-23: --clamp "
                "characteristics --hourglass-stiffness 0 --no-surface-extrapolation)")
       ->excludes(extrapolate);
-  app.add_flag("--free-edge-uniaxial", o.free_edge_uniaxial,
-               "3D: the particles on an edge between two free faces take the uniaxial stress along the edge "
-               "(SolverSettings::free_edge_uniaxial)");
+  auto* uniaxial = app.add_flag(
+      "--free-edge-uniaxial", o.free_edge_uniaxial,
+      "3D: the particles on an edge between two free faces take the uniaxial stress along the edge "
+      "(SolverSettings::free_edge_uniaxial). Default: on in 3D (refused in 2D)");
+  app.add_flag("--no-free-edge-uniaxial", o.no_free_edge_uniaxial,
+               "3D: turn it off (the edges then carry the shear force: -86 % at 41 x 5 x 5; README, "
+               "Known problems)")
+      ->excludes(uniaxial);
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
-  app.add_option("--tolerance", o.tolerance, "rest criterion (relative tip velocity)")
+  app.add_option("--tolerance", o.tolerance,
+                 "rest criterion: tip speed below this x (exact tip deflection / first-mode period)")
+      ->capture_default_str();
+  app.add_option("--kinetic-tolerance", o.kinetic_tolerance,
+                 "rest criterion, also: kinetic energy below this x P x exact tip deflection")
       ->capture_default_str();
   app.add_option("--out", o.out, "output directory")->capture_default_str();
   app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");

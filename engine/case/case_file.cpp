@@ -542,6 +542,10 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     c.wall_gradient = m.text("velocity_wall", false, {"characteristics", "wall_gradient"})
                           .value_or("characteristics") == "wall_gradient";
     c.surface_extrapolation = m.boolean("surface_extrapolation").value_or(false);
+    c.free_edge_uniaxial = m.boolean("free_edge_uniaxial").value_or(false);
+    if (c.free_edge_uniaxial && c.dimension != 3)
+      context.invalid(m.get("free_edge_uniaxial", false, ""), m.path("free_edge_uniaxial"),
+                      "applies to dimension = 3 only (the edges between two free faces)");
     c.body_force = m.numbers("body_force", false, dim, "m/s^2, one per axis")
                        .value_or(std::vector<double>(dim, 0.0));
     m.finish();

@@ -86,6 +86,7 @@ struct CaseFile {
   double hourglass_stiffness = 0.0;  ///< SolverSettings::hourglass_stiffness
   bool wall_gradient = false;        ///< velocity_wall = "wall_gradient" (else characteristics)
   bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
+  bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D only)
   std::vector<double> body_force;
 
   // [solver]

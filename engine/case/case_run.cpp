@@ -249,6 +249,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.velocity_wall = c.wall_gradient ? SolverSettings<Dim>::VelocityWall::wall_gradient
                                              : SolverSettings<Dim>::VelocityWall::characteristics;
   b.settings.surface_extrapolation = c.surface_extrapolation;
+  b.settings.free_edge_uniaxial = c.free_edge_uniaxial;
   b.settings.neighbor_search = c.neighbor_search;
   b.settings.transpose_lists = c.transpose_lists;
   b.settings.neighbor_skin = c.neighbor_skin;
@@ -558,7 +559,7 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       "\"spacing\": {}, \"smoothing_length\": {}, \"alpha\": {}, \"kernel\": {}, \"interpolation\": {}, "
       "\"kinematics\": {}, \"E\": {}, \"nu\": {}, \"rho\": {}, \"plane\": {}, \"p_wave_speed\": {}, "
       "\"dt\": {}, \"cfl\": {}, \"end_time\": {}, \"damping\": {}, \"hourglass\": {}, "
-      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"neighbor_skin\": {}, "
+      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"free_edge_uniaxial\": {}, \"neighbor_skin\": {}, "
       "\"threads\": {}}},\n"
       "  \"time\": {},\n  \"steps\": {},\n  \"neighbor_builds\": {},\n  \"wall_seconds\": {},\n  \"particle_steps_per_second\": {},\n"
       "  \"output_frames\": {},\n  \"output_writer_seconds\": {},\n  \"output_wait_seconds\": {},\n"
@@ -574,7 +575,8 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       json_number(b.wave_speed), json_number(b.dt), json_number(b.dt * b.wave_speed / c.spacing),
       json_number(c.end_time), json_number(c.damping), json_number(c.hourglass),
       json_number(c.hourglass_stiffness), json_string(c.wall_gradient ? "wall_gradient" : "characteristics"),
-      c.surface_extrapolation ? "true" : "false", json_number(c.neighbor_skin),
+      c.surface_extrapolation ? "true" : "false", c.free_edge_uniaxial ? "true" : "false",
+      json_number(c.neighbor_skin),
       thread_count(),
       json_number(r.time), r.steps, r.neighbor_builds, json_number(r.wall_seconds), json_number(r.particle_steps_per_second),
       r.frames, json_number(r.output_busy_seconds), json_number(r.output_wait_seconds), errors);
