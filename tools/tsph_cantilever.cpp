@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <chrono>
 #include <cmath>
@@ -60,6 +61,8 @@ struct Options {
   std::string clamp = "default";
   bool surface_extrapolation = false, no_surface_extrapolation = false;
   bool free_edge_uniaxial = false;
+  std::vector<std::string> ul_ablation;  // SolverSettings::UpdatedLagrangianAblation switches
+  std::string virtual_motion = "real-interpolation";  // SolverSettings::VirtualMotion
   double end_time = 3.0, tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -97,6 +100,7 @@ void write_results(const Options& o, const CantileverSettings<Dim>& s, const Can
   write_file_atomically(out / "summary.json", fmt::format(
       "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
       " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
+      " \"virtual_motion\": \"{}\", \"ul_ablation\": \"{}\",\n"
       " \"hourglass\": {}, \"hourglass_stiffness\": {}, \"clamp\": \"{}\", \"surface_extrapolation\": {},\n"
       " \"real_particles\": {}, \"virtual_particles\": {},\n"
       " \"status\": \"{}\", \"message\": \"{}\",\n"
@@ -106,8 +110,8 @@ void write_results(const Options& o, const CantileverSettings<Dim>& s, const Can
       " \"particle_steps_per_second\": {:.6e}, \"threads\": {},\n"
       " \"gradient_fallbacks\": {}, \"interpolation_fallbacks\": {}}}\n",
       Dim, Dim == 2 ? o.plane : "none", s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1, dx,
-      s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, s.hourglass_stiffness, clamp_name(s),
-      s.surface_extrapolation, r.real_particles, r.virtual_particles,
+      s.alpha, s.cfl, o.kernel, o.kinematics, o.virtual_motion, fmt::format("{}", fmt::join(o.ul_ablation, ",")),
+      s.hourglass, s.hourglass_stiffness, clamp_name(s), s.surface_extrapolation, r.real_particles, r.virtual_particles,
       status, message, r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
       r.tip_error_percent, r.axis_l2_error_percent, r.wall_seconds, r.particle_steps_per_second,
       thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks));
@@ -144,6 +148,14 @@ int run(const Options& o) {
   if (o.surface_extrapolation) s.surface_extrapolation = true;
   if (o.no_surface_extrapolation) s.surface_extrapolation = false;
   if (o.free_edge_uniaxial) s.free_edge_uniaxial = true;
+  s.virtual_motion = o.virtual_motion == "half-step-velocity"
+                         ? SolverSettings<Dim>::VirtualMotion::half_step_velocity
+                         : SolverSettings<Dim>::VirtualMotion::real_interpolation;
+  for (const std::string& a : o.ul_ablation) {
+    if (a == "frozen-geometry") s.ul_ablation.frozen_geometry = true;
+    else if (a == "no-jaumann") s.ul_ablation.no_objective_rates = true;
+    else if (a == "no-density") s.ul_ablation.no_density_update = true;
+  }
   s.end_time = o.end_time;
   s.tolerance = o.tolerance;
   if (const auto errors = validate(s); !errors.empty()) {
@@ -240,6 +252,15 @@ int main(int argc, char** argv) {
   app.add_flag("--free-edge-uniaxial", o.free_edge_uniaxial,
                "3D: the particles on an edge between two free faces take the uniaxial stress along the edge "
                "(SolverSettings::free_edge_uniaxial)");
+  app.add_option("--ul-ablation", o.ul_ablation,
+                 "updated Lagrangian, diagnostics (SolverSettings::UpdatedLagrangianAblation): "
+                 "frozen-geometry, no-jaumann, no-density (any of them)")
+      ->check(CLI::IsMember({"frozen-geometry", "no-jaumann", "no-density"}));
+  app.add_option("--virtual-motion", o.virtual_motion,
+                 "updated Lagrangian: how the virtual particles move: real-interpolation (placed at "
+                 "the initial interpolation of the real positions) | half-step-velocity (their own "
+                 "half-step velocity; drifts, too stiff: README, Known problems)")
+      ->capture_default_str()->check(CLI::IsMember({"real-interpolation", "half-step-velocity"}));
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance, "rest criterion (relative tip velocity)")
       ->capture_default_str();
