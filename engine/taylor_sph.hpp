@@ -182,8 +182,8 @@ struct SolverSettings {
   /// interpolation at the virtual particle over its real neighbours within 2h in the
   /// initial configuration (fixed for the run; sum_J A_vJ = 1, sum_J A_vJ X_J = X_v, so
   /// every affine motion, rigid ones included, is followed exactly; on a lattice at
-  /// alpha 0.6 the mean of its cell's corners). The virtual set then stays where the
-  /// real field it interpolates is.
+  /// alpha 0.6 the mean of its cell's corners). Holds 12 B per such pair (2D: 200 B per
+  /// virtual particle at alpha 1.2; not in memory_estimate.hpp yet; README).
   /// half_step_velocity (the former scheme): x_v += dt v_v^{n+1/2}, the virtual
   /// particle's own half-step velocity. That velocity carries dt/2 div sigma / rho from
   /// the real stresses, which need not vanish at a discrete rest (the full step sees
@@ -376,9 +376,11 @@ class TaylorSph {
     double virtual_volume = 0.0;  // dx of the CFL in a diagnosis (check_stability)
     for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.volume[q];
     initial_spacing_ = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
+    rebuild_neighbors();
+    // After the first rebuild, which may sort the sets: the weights' sums then run in
+    // the sorted order (a shuffled set sorted at construction runs bit for bit as the lattice).
     if (virtual_follows_real())
       visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) { build_virtual_follow(kernel); });
-    rebuild_neighbors();
   }
 
   double support_radius() const { return kSupportFactor * settings_.smoothing_length; }
