@@ -180,6 +180,38 @@ struct SolverSettings {
   /// reorder. `none` (the default): never sorted.
   SpatialOrder spatial_order = SpatialOrder::none;
   double reorder_threshold = 2.0;  ///< > 1
+  /// Updated Lagrangian: how the virtual particles move.
+  /// real_interpolation (default): each virtual particle is placed, after each move of the
+  /// real set, at x_v = sum_J A_vJ x_J, A_vJ the weights of the linear-corrected kernel
+  /// interpolation at the virtual particle over its real neighbours within 2h in the
+  /// initial configuration (fixed for the run; sum_J A_vJ = 1, sum_J A_vJ X_J = X_v, so
+  /// every affine motion, rigid ones included, is followed exactly; on a lattice at
+  /// alpha 0.6 the mean of its cell's corners). Holds 12 B per such pair (2D: 200 B per
+  /// virtual particle at alpha 1.2; not in memory_estimate.hpp yet; README).
+  /// half_step_velocity (the former scheme): x_v += dt v_v^{n+1/2}, the virtual
+  /// particle's own half-step velocity. That velocity carries dt/2 div sigma / rho from
+  /// the real stresses, which need not vanish at a discrete rest (the full step sees
+  /// only what the virtual set interpolates), so the virtual particles drift from their
+  /// cells at a steady rate after the beam has come to rest (2D cantilever 41 x 5: 0.13
+  /// dx at the tip by 1.4 s, growing; diverged at 4 s) and the beam stiffens (-12.9 % at
+  /// 41 x 5; README, Known problems).
+  enum class VirtualMotion { real_interpolation, half_step_velocity };
+  VirtualMotion virtual_motion = VirtualMotion::real_interpolation;
+  /// Updated-Lagrangian ablations (diagnostics of the 2D cantilever's stiffness; README,
+  /// Known problems). All off by default; each switches off one part of the
+  /// updated-Lagrangian update and leaves the rest as it is. No effect in small strain.
+  struct UpdatedLagrangianAblation {
+    /// The particles do not move: positions, neighbour lists, kernel weights and boundary
+    /// normals stay those of x^0 (as in small strain); the Jaumann terms and the density
+    /// update stay on.
+    bool frozen_geometry = false;
+    /// The stress rate without the Jaumann terms (W sigma - sigma W), in the bulk and at
+    /// the boundary particles.
+    bool no_objective_rates = false;
+    /// Density and volume stay at their initial values.
+    bool no_density_update = false;
+  };
+  UpdatedLagrangianAblation ul_ablation;
 };
 
 /// What the run did; fallbacks are counted per stencil evaluation.
@@ -349,13 +381,28 @@ class TaylorSph {
     for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.volume[q];
     initial_spacing_ = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
     rebuild_neighbors();
+    // After the first rebuild, which may sort the sets: the weights' sums then run in
+    // the sorted order (a shuffled set sorted at construction runs bit for bit as the lattice).
+    if (virtual_follows_real())
+      visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) { build_virtual_follow(kernel); });
   }
 
   double support_radius() const { return kSupportFactor * settings_.smoothing_length; }
   /// The skin in length units (SolverSettings::neighbor_skin x 2h), 0 in small strain.
   double skin_distance() const {
-    return settings_.kinematics == Kinematics::updated_lagrangian ? settings_.neighbor_skin * support_radius()
-                                                                   : 0.0;
+    return positions_move() ? settings_.neighbor_skin * support_radius() : 0.0;
+  }
+  /// Updated Lagrangian: the particles move (SolverSettings::UpdatedLagrangianAblation).
+  bool positions_move() const {
+    return settings_.kinematics == Kinematics::updated_lagrangian && !settings_.ul_ablation.frozen_geometry;
+  }
+  /// Updated Lagrangian: the stress rate carries the Jaumann terms.
+  bool objective_rates() const {
+    return settings_.kinematics == Kinematics::updated_lagrangian && !settings_.ul_ablation.no_objective_rates;
+  }
+  /// Updated Lagrangian: d rho / dt = -rho div v.
+  bool density_follows() const {
+    return settings_.kinematics == Kinematics::updated_lagrangian && !settings_.ul_ablation.no_density_update;
   }
   /// Radius of the neighbour searches: 2h plus the skin.
   double list_radius() const { return support_radius() + skin_distance(); }
@@ -389,7 +436,7 @@ class TaylorSph {
       boundary_gradients(kernel);
       half_step(kernel, dt);
       if (settings_.conservative_momentum) store_momentum_weights(kernel);
-      if (settings_.kinematics == Kinematics::updated_lagrangian) {
+      if (positions_move()) {
         move_to_midpoint(dt);
         if (skin_distance() > 0.0 && lists_outdated(dt)) search_lists();  // lists used at the midpoint
       }
@@ -401,7 +448,7 @@ class TaylorSph {
     });
     check_stability(dt);  // a diverged state is reported before it moves any particle
     move(dt);
-    if (settings_.kinematics == Kinematics::updated_lagrangian) {
+    if (positions_move()) {
       if (skin_distance() > 0.0 && !lists_outdated(dt)) {
         compute_boundary_normals();  // the lists still hold every pair within 2h at x^{n+1}
       } else {
@@ -803,7 +850,7 @@ class TaylorSph {
     const PointsView<Dim> source_points = points_of<Dim>(real_);
     const double h = settings_.smoothing_length;
     const double half_dt = 0.5 * dt;
-    const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
+    const bool objective = objective_rates(), compressible = density_follows();
     add(parallel_for_with_scratch<StepScratch, StencilCounts>(
         target.count, [&](std::size_t q, StepScratch& scratch, StencilCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
@@ -814,7 +861,7 @@ class TaylorSph {
           counts += status;
           if (status.no_neighbors) return;  // isolated: keeps its values (counted)
           const LocalState s = evaluate(source, nb, w, scratch.gathered);
-          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress, moving);
+          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress, objective);
           for (int m = 0; m < stress_count; ++m)
             target.stress[m][q] = s.stress[m] + half_dt * rate[m];
           for (int d = 0; d < Dim; ++d)
@@ -823,7 +870,7 @@ class TaylorSph {
                                            settings_.body_force[d] -
                                            settings_.damping * s.velocity[d]);
           const double density =
-              moving ? s.density * exp_of_small(-half_dt * s.velocity_gradient.trace()) : s.density;
+              compressible ? s.density * exp_of_small(-half_dt * s.velocity_gradient.trace()) : s.density;
           target.density[q] = density;
           target.volume[q] = target.mass[q] / density;
         }));
@@ -837,7 +884,7 @@ class TaylorSph {
     const PointsView<Dim> source_points = points_of<Dim>(virtual_);
     const PointsView<Dim> target_points = points_of<Dim>(real_);
     const double h = settings_.smoothing_length;
-    const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
+    const bool objective = objective_rates(), compressible = density_follows();
     if (lists_used_once()) {  // the half step's list is done with: one list at a time
       real_from_virtual_ = NeighborList{};
       if (settings_.transpose_lists) {
@@ -887,13 +934,13 @@ class TaylorSph {
             boundary_half_stress_gradient_[static_cast<std::size_t>(b)] =
                 stress_gradient(source, nb, w, s.stress);
           }
-          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress, moving);
+          const StressVector<Dim> rate = material_.stress_rate(s.velocity_gradient, s.stress, objective);
           for (int m = 0; m < stress_count; ++m) target.stress[m][r] += dt * rate[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][r] +=
                 dt * (s.stress_divergence[d] / s.density + settings_.body_force[d] -
                       settings_.damping * s.velocity[d]);
-          if (moving) {
+          if (compressible) {
             target.density[r] *= exp_of_small(-dt * s.velocity_gradient.trace());
             target.volume[r] = target.mass[r] / target.density[r];
           }
@@ -981,7 +1028,7 @@ class TaylorSph {
       // the velocity gradient in the frame: tangential columns from the virtual set at
       // n+1/2, the normal column from the real set at n.
       Mat jaumann = Mat::Zero();
-      if (settings_.kinematics == Kinematics::updated_lagrangian) {
+      if (objective_rates()) {
         Mat gradient_estimate = velocity_dt;
         gradient_estimate.col(0) = velocity_dn;
         const Mat spin_estimate = 0.5 * (gradient_estimate - gradient_estimate.transpose());
@@ -1033,7 +1080,7 @@ class TaylorSph {
         gradient(k, 0) =
             ((stress1(0, k) - stress0(0, k)) / dt - jaumann(0, k)) / shear - velocity_dt(0, k);
       const Mat spin = 0.5 * (gradient - gradient.transpose());
-      const Mat rotation_rate = settings_.kinematics == Kinematics::updated_lagrangian
+      const Mat rotation_rate = objective_rates()
                                     ? Mat(objective_rotation_rate<Dim>(spin, stress0, dt))
                                     : Mat(Mat::Zero());
       const double volumetric = gradient.trace();
@@ -1045,7 +1092,7 @@ class TaylorSph {
 
       // Density from the same velocity gradient (the full step's one-sided estimate is
       // replaced, like the rest of the boundary state).
-      if (settings_.kinematics == Kinematics::updated_lagrangian) {
+      if (density_follows()) {
         real_.density[i] = boundary_density_[b] * std::exp(-dt * volumetric);
         real_.volume[i] = real_.mass[i] / real_.density[i];
       }
@@ -1214,12 +1261,11 @@ class TaylorSph {
     const Vec wall_half = condition.prescribed(initial_position_of(i), boundary_profile_[b], t_new - 0.5 * dt);
     const Mat gradient = boundary_half_velocity_gradient_[b] +
                          (boundary_half_velocity_[b] - wall_half) * boundary_gradient_sum_[b].transpose();
-    const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
-    const StressVector<Dim> rate = material_.stress_rate(gradient, boundary_stress_[b], moving);
+    const StressVector<Dim> rate = material_.stress_rate(gradient, boundary_stress_[b], objective_rates());
     for (int m = 0; m < stress_count; ++m) real_.stress[m][i] = boundary_stress_[b][m] + dt * rate[m];
     const Vec v = condition.prescribed(initial_position_of(i), boundary_profile_[b], t_new);
     for (int d = 0; d < Dim; ++d) real_.velocity[d][i] = v[d];
-    if (moving) {
+    if (density_follows()) {
       real_.density[i] = boundary_density_[b] * std::exp(-dt * gradient.trace());
       real_.volume[i] = real_.mass[i] / real_.density[i];
     }
@@ -1507,6 +1553,10 @@ class TaylorSph {
       for (int d = 0; d < Dim; ++d)
         if (std::isfinite(real_.velocity[d][i])) real_.position[d][i] += half_dt * real_.velocity[d][i];
     });
+    if (virtual_follows_real()) {
+      place_virtual_particles();
+      return;
+    }
     parallel_for(virtual_.size(), [&](std::size_t i) {
       for (int d = 0; d < Dim; ++d)
         if (std::isfinite(virtual_.velocity[d][i]))
@@ -1514,12 +1564,66 @@ class TaylorSph {
     });
   }
 
+  /// SolverSettings::VirtualMotion::real_interpolation: x_v = sum_J A_vJ x_J (and the
+  /// virtual displacement x_v - X_v) for every virtual particle with a row; one without
+  /// real neighbours at x^0 keeps the move by its own velocity.
+  void place_virtual_particles() {
+    parallel_for(virtual_.size(), [&](std::size_t v) {
+      const auto row = virtual_follow_.neighbors(v);
+      if (row.empty()) return;
+      const std::uint64_t first = virtual_follow_.offsets[v];
+      Vec x = Vec::Zero();
+      for (std::size_t k = 0; k < row.size(); ++k) x += virtual_follow_weight_[first + k] * real_.position_of(row[k]);
+      for (int d = 0; d < Dim; ++d) {
+        virtual_.position[d][v] = x[d];
+        virtual_.displacement[d][v] = x[d] - virtual_.initial_position[d][v];
+      }
+    });
+  }
+
+  /// The weights A_vJ of place_virtual_particles: the linear-corrected interpolation
+  /// weights at X_v over the real particles within 2h of it at X (volumes of the set as
+  /// built), and the largest sum_J |A_vJ| (the skin's bound on a virtual move).
+  template <class Kernel>
+  void build_virtual_follow(const Kernel& kernel) {
+    PointsView<Dim> real_points, virtual_points;
+    real_points.count = real_.size();
+    virtual_points.count = virtual_.size();
+    for (int d = 0; d < Dim; ++d) {
+      real_points.coordinate[d] = real_.initial_position[d].data();
+      virtual_points.coordinate[d] = virtual_.initial_position[d].data();
+    }
+    virtual_follow_ = CellList<Dim>(real_points, support_radius()).query(virtual_points);
+    virtual_follow_weight_.assign(virtual_follow_.pair_count(), 0.0);
+    std::vector<double> gain(virtual_.size(), 0.0);
+    parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
+        virtual_.size(), [&](std::size_t v, StencilWeights<Dim>& w, StencilCounts&) {
+          const auto row = virtual_follow_.neighbors(v);
+          Vec x0;
+          for (int d = 0; d < Dim; ++d) x0[d] = virtual_.initial_position[d][v];
+          const StencilStatus status = compute_stencil<Dim>(kernel, settings_.smoothing_length, x0, real_points,
+                                                            real_.volume.data(), row, InterpolationKind::linear, w);
+          if (status.no_neighbors) return;
+          const std::uint64_t first = virtual_follow_.offsets[v];
+          for (std::size_t k = 0; k < row.size(); ++k) {
+            virtual_follow_weight_[first + k] = w.value[k];
+            gain[v] += std::abs(w.value[k]);
+          }
+        });
+    virtual_follow_gain_ = 1.0;
+    for (double g : gain) virtual_follow_gain_ = std::max(virtual_follow_gain_, g);
+  }
+
+  bool virtual_follows_real() const {
+    return positions_move() && settings_.virtual_motion == SolverSettings<Dim>::VirtualMotion::real_interpolation;
+  }
+
   /// Step 5: displacements with the mean of v^n and v^{n+1}; in updated-Lagrangian
   /// mode the real particles move so, the virtual ones with v^{n+1/2}: both sets are
   /// at the midpoint configuration (move_to_midpoint), so the real ones take the
   /// second half dt/2 v^{n+1}, the virtual ones dt/2 v^{n+1/2}.
   void move(double dt) {
-    const bool moving = settings_.kinematics == Kinematics::updated_lagrangian;
+    const bool moving = positions_move();
     const double half_dt = 0.5 * dt;
     parallel_for(real_.size(), [&](std::size_t i) {
       for (int d = 0; d < Dim; ++d) {
@@ -1527,13 +1631,16 @@ class TaylorSph {
         if (moving) real_.position[d][i] += half_dt * real_.velocity[d][i];
       }
     });
-    if (moving)
+    if (virtual_follows_real()) {
+      place_virtual_particles();
+    } else if (moving) {
       parallel_for(virtual_.size(), [&](std::size_t i) {
         for (int d = 0; d < Dim; ++d) {
           virtual_.displacement[d][i] += dt * virtual_.velocity[d][i];
           virtual_.position[d][i] += half_dt * virtual_.velocity[d][i];
         }
       });
+    }
   }
 
   /// In updated-Lagrangian runs each half-step list is rebuilt every step and used once,
@@ -1546,7 +1653,7 @@ class TaylorSph {
   /// midpoint positions (pairs that cross the support edge in half a step have weights
   /// near zero).
   bool lists_used_once() const {
-    return settings_.kinematics == Kinematics::updated_lagrangian && settings_.hourglass_stiffness == 0.0 &&
+    return positions_move() && settings_.hourglass_stiffness == 0.0 &&
            skin_distance() == 0.0;
   }
 
@@ -1599,7 +1706,10 @@ class TaylorSph {
       return std::sqrt(largest);
     };
     real_path_bound_ += half_dt * largest_speed(real_);
-    virtual_path_bound_ += half_dt * largest_speed(virtual_);
+    // A following virtual particle moves by sum_J A_vJ (the moves of its real rows), at
+    // most virtual_follow_gain_ times the largest real move.
+    virtual_path_bound_ += half_dt * (virtual_follows_real() ? virtual_follow_gain_ * largest_speed(real_)
+                                                             : largest_speed(virtual_));
     const double pair_bound = real_path_bound_ + std::max(real_path_bound_, virtual_path_bound_);
     return !(pair_bound <= skin_distance() && std::isfinite(pair_bound));
   }
@@ -1712,6 +1822,22 @@ class TaylorSph {
     for (std::size_t s = 0; s < boundary_particles_.size(); ++s)
       boundary_slot_[boundary_particles_[s]] = static_cast<std::int32_t>(s);
     // By index, rebuilt at their next use.
+    if (virtual_follow_.query_count() == virtual_.size()) {  // rows to the new virtual order, entries to the new real
+      NeighborList follow;
+      std::vector<double> weight;
+      follow.offsets.assign(virtual_.size() + 1, 0);
+      for (std::size_t k = 0; k < virtual_order.size(); ++k) {
+        const auto row = virtual_follow_.neighbors(virtual_order[k]);
+        const std::uint64_t first = virtual_follow_.offsets[virtual_order[k]];
+        for (std::size_t e = 0; e < row.size(); ++e) {
+          follow.indices.push_back(new_index[row[e]]);
+          weight.push_back(virtual_follow_weight_[first + e]);
+        }
+        follow.offsets[k + 1] = follow.indices.size();
+      }
+      virtual_follow_ = std::move(follow);
+      virtual_follow_weight_ = std::move(weight);
+    }
     hourglass_list_build_ = -1;
     hourglass_from_virtual_ = NeighborList{};
     hourglass_to_real_ = NeighborList{};
@@ -1898,6 +2024,11 @@ class TaylorSph {
   std::vector<std::uint32_t> momentum_pair_virtual_;  ///< its virtual particle
   NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)
   NeighborList hourglass_to_real_;       ///< its transpose
+  /// VirtualMotion::real_interpolation: rows virtual, entries real within 2h at x^0, and
+  /// the weights A_vJ per entry (place_virtual_particles).
+  NeighborList virtual_follow_;
+  std::vector<double> virtual_follow_weight_;
+  double virtual_follow_gain_ = 1.0;  ///< max_v sum_J |A_vJ|
   double hourglass_radius_ = 0.0;
   std::int64_t hourglass_list_build_ = -1;  ///< neighbor_builds when it was built
 };

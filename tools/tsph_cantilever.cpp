@@ -19,6 +19,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <chrono>
 #include <cmath>
@@ -62,6 +63,8 @@ struct Options {
   std::string clamp = "default";
   bool surface_extrapolation = false, no_surface_extrapolation = false;
   bool free_edge_uniaxial = false, no_free_edge_uniaxial = false;
+  std::vector<std::string> ul_ablation;  // SolverSettings::UpdatedLagrangianAblation switches
+  std::string virtual_motion = "real-interpolation";  // SolverSettings::VirtualMotion
   double end_time = 3.0, tolerance = 1e-5, kinetic_tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -104,6 +107,7 @@ void write_results(const Options& o, const CantileverSettings<Dim>& s, const Can
   write_file_atomically(out / "summary.json", fmt::format(
       "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
       " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
+      " \"virtual_motion\": \"{}\", \"ul_ablation\": \"{}\",\n"
       " \"hourglass\": {}, \"hourglass_stiffness\": {}, \"clamp\": \"{}\", \"surface_extrapolation\": {},\n"
       " \"free_edge_uniaxial\": {}, \"tolerance\": {}, \"kinetic_tolerance\": {},\n"
       " \"real_particles\": {}, \"virtual_particles\": {},\n"
@@ -115,8 +119,9 @@ void write_results(const Options& o, const CantileverSettings<Dim>& s, const Can
       " \"particle_steps_per_second\": {:.6e}, \"threads\": {},\n"
       " \"gradient_fallbacks\": {}, \"interpolation_fallbacks\": {}}}\n",
       Dim, Dim == 2 ? o.plane : "none", s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1, dx,
-      s.alpha, s.cfl, o.kernel, o.kinematics, s.hourglass, s.hourglass_stiffness, clamp_name(s),
-      s.surface_extrapolation, s.free_edge_uniaxial, s.tolerance, s.kinetic_tolerance, r.real_particles, r.virtual_particles,
+      s.alpha, s.cfl, o.kernel, o.kinematics, o.virtual_motion, fmt::format("{}", fmt::join(o.ul_ablation, ",")),
+      s.hourglass, s.hourglass_stiffness, clamp_name(s), s.surface_extrapolation, s.free_edge_uniaxial, s.tolerance,
+      s.kinetic_tolerance, r.real_particles, r.virtual_particles,
       status, message, r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
       r.tip_error_percent, r.axis_l2_error_percent, r.kinetic_energy, r.load_work, r.wall_seconds, r.particle_steps_per_second,
       thread_count(), r.counters.gradient_fallbacks, r.counters.interpolation_fallbacks));
@@ -154,6 +159,14 @@ int run(const Options& o) {
   if (o.no_surface_extrapolation) s.surface_extrapolation = false;
   if (o.free_edge_uniaxial) s.free_edge_uniaxial = true;
   if (o.no_free_edge_uniaxial) s.free_edge_uniaxial = false;
+  s.virtual_motion = o.virtual_motion == "half-step-velocity"
+                         ? SolverSettings<Dim>::VirtualMotion::half_step_velocity
+                         : SolverSettings<Dim>::VirtualMotion::real_interpolation;
+  for (const std::string& a : o.ul_ablation) {
+    if (a == "frozen-geometry") s.ul_ablation.frozen_geometry = true;
+    else if (a == "no-jaumann") s.ul_ablation.no_objective_rates = true;
+    else if (a == "no-density") s.ul_ablation.no_density_update = true;
+  }
   s.end_time = o.end_time;
   s.tolerance = o.tolerance;
   s.kinetic_tolerance = o.kinetic_tolerance;
@@ -259,6 +272,15 @@ int main(int argc, char** argv) {
                "3D: turn it off (the edges then carry the shear force: -86 % at 41 x 5 x 5; README, "
                "Known problems)")
       ->excludes(uniaxial);
+  app.add_option("--ul-ablation", o.ul_ablation,
+                 "updated Lagrangian, diagnostics (SolverSettings::UpdatedLagrangianAblation): "
+                 "frozen-geometry, no-jaumann, no-density (any of them)")
+      ->check(CLI::IsMember({"frozen-geometry", "no-jaumann", "no-density"}));
+  app.add_option("--virtual-motion", o.virtual_motion,
+                 "updated Lagrangian: how the virtual particles move: real-interpolation (placed at "
+                 "the initial interpolation of the real positions) | half-step-velocity (their own "
+                 "half-step velocity; drifts, too stiff: README, Known problems)")
+      ->capture_default_str()->check(CLI::IsMember({"real-interpolation", "half-step-velocity"}));
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance,
                  "rest criterion: tip speed below this x (exact tip deflection / first-mode period)")
