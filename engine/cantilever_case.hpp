@@ -53,7 +53,7 @@ struct CantileverSettings {
   bool surface_extrapolation = Dim == 2;  ///< SolverSettings::surface_extrapolation
   bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D)
   /// SolverSettings::virtual_motion (updated Lagrangian).
-  typename SolverSettings<Dim>::VirtualMotion virtual_motion = SolverSettings<Dim>::VirtualMotion::real_interpolation;
+  typename SolverSettings<Dim>::VirtualMotion virtual_motion = SolverSettings<Dim>::VirtualMotion::material_point;
   /// SolverSettings::ul_ablation (diagnostics of the updated-Lagrangian stiffness).
   typename SolverSettings<Dim>::UpdatedLagrangianAblation ul_ablation{};
   double end_time = 3.0;       ///< give up after this simulated time (s)
