@@ -181,7 +181,7 @@ struct SolverSettings {
   SpatialOrder spatial_order = SpatialOrder::none;
   double reorder_threshold = 2.0;  ///< > 1
   /// Updated Lagrangian: how the virtual particles move.
-  /// real_interpolation (default): each virtual particle is placed, after each move of the
+  /// real_interpolation: each virtual particle is placed, after each move of the
   /// real set, at x_v = sum_J A_vJ x_J, A_vJ the weights of the linear-corrected kernel
   /// interpolation at the virtual particle over its real neighbours within 2h in the
   /// initial configuration (fixed for the run; sum_J A_vJ = 1, sum_J A_vJ X_J = X_v, so
@@ -195,8 +195,16 @@ struct SolverSettings {
   /// cells at a steady rate after the beam has come to rest (2D cantilever 41 x 5: 0.13
   /// dx at the tip by 1.4 s, growing; diverged at 4 s) and the beam stiffens (-12.9 % at
   /// 41 x 5; README, Known problems).
-  enum class VirtualMotion { real_interpolation, half_step_velocity };
-  VirtualMotion virtual_motion = VirtualMotion::real_interpolation;
+  /// material_point (default): the former scheme, and at every half step each virtual
+  /// particle is put back at the material point X_v it stands for, read from its own
+  /// half-step stencil over the real set: with the interpolated initial coordinates
+  /// Xbar = sum_J w_J X_J, the interpolated positions xbar = sum_J w_J x_J and the
+  /// corrected gradient G = sum_J (X_J - Xbar) (x) grad w_J = dX/dx, the virtual particle
+  /// moves to x_v = xbar + G^{-1} (X_v - Xbar) (exact for every affine motion, rigid ones
+  /// included, with any partition of unity w). No stored weights: the cure of
+  /// real_interpolation without its 12 B per pair.
+  enum class VirtualMotion { material_point, real_interpolation, half_step_velocity };
+  VirtualMotion virtual_motion = VirtualMotion::material_point;
   /// Updated-Lagrangian ablations (diagnostics of the 2D cantilever's stiffness; README,
   /// Known problems). All off by default; each switches off one part of the
   /// updated-Lagrangian update and leaves the rest as it is. No effect in small strain.
@@ -851,8 +859,10 @@ class TaylorSph {
     const double h = settings_.smoothing_length;
     const double half_dt = 0.5 * dt;
     const bool objective = objective_rates(), compressible = density_follows();
-    add(parallel_for_with_scratch<StepScratch, StencilCounts>(
-        target.count, [&](std::size_t q, StepScratch& scratch, StencilCounts& counts) {
+    const bool to_material_point =
+        positions_move() && settings_.virtual_motion == SolverSettings<Dim>::VirtualMotion::material_point;
+    const HalfStepCounts shifts = parallel_for_with_scratch<StepScratch, HalfStepCounts>(
+        target.count, [&](std::size_t q, StepScratch& scratch, HalfStepCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
           const auto nb = virtual_from_real_.neighbors(q);
           const StencilStatus status =
@@ -873,7 +883,59 @@ class TaylorSph {
               compressible ? s.density * exp_of_small(-half_dt * s.velocity_gradient.trace()) : s.density;
           target.density[q] = density;
           target.volume[q] = target.mass[q] / density;
-        }));
+          if (to_material_point && !status.gradient_fallback)
+            counts.largest_shift = std::max(counts.largest_shift, place_at_material_point(q, nb, w));
+        });
+    add(shifts);
+    virtual_path_bound_ += shifts.largest_shift;  // the lists' skin check (lists_outdated)
+  }
+
+  /// The half step's counters, and the largest move of place_at_material_point.
+  struct HalfStepCounts : StencilCounts {
+    double largest_shift = 0.0;
+    HalfStepCounts& operator+=(const StencilStatus& status) {
+      StencilCounts::operator+=(status);
+      return *this;
+    }
+    HalfStepCounts& operator+=(const HalfStepCounts& other) {
+      StencilCounts::operator+=(other);
+      largest_shift = std::max(largest_shift, other.largest_shift);
+      return *this;
+    }
+  };
+
+  /// SolverSettings::VirtualMotion::material_point: moves virtual particle q to
+  /// xbar + G^{-1} (X_q - Xbar) (see there) with its half-step stencil w over the real
+  /// row nb; returns the distance moved (0 where G is singular: the particle stays).
+  double place_at_material_point(std::size_t q, std::span<const std::uint32_t> nb, const StencilWeights<Dim>& w) {
+    Vec reference_mean = Vec::Zero(), position_mean = Vec::Zero();
+    for (std::size_t k = 0; k < nb.size(); ++k) {
+      const std::uint32_t j = nb[k];
+      for (int d = 0; d < Dim; ++d) {
+        reference_mean[d] += w.value[k] * real_.initial_position[d][j];
+        position_mean[d] += w.value[k] * real_.position[d][j];
+      }
+    }
+    Mat reference_gradient = Mat::Zero();  // dX/dx
+    for (std::size_t k = 0; k < nb.size(); ++k) {
+      const std::uint32_t j = nb[k];
+      for (int a = 0; a < Dim; ++a) {
+        const double dX = real_.initial_position[a][j] - reference_mean[a];
+        for (int b = 0; b < Dim; ++b) reference_gradient(a, b) += dX * w.gradient[b][k];
+      }
+    }
+    const double determinant = reference_gradient.determinant();
+    if (!(std::abs(determinant) > 1e-6)) return 0.0;
+    Vec material;
+    for (int d = 0; d < Dim; ++d) material[d] = virtual_.initial_position[d][q] - reference_mean[d];
+    const Vec placed = position_mean + reference_gradient.inverse() * material;
+    double moved = 0.0;
+    for (int d = 0; d < Dim; ++d) {
+      moved += (placed[d] - virtual_.position[d][q]) * (placed[d] - virtual_.position[d][q]);
+      virtual_.position[d][q] = placed[d];
+      virtual_.displacement[d][q] = placed[d] - virtual_.initial_position[d][q];
+    }
+    return std::sqrt(moved);
   }
 
   /// Seed eq. (4): virtual -> real, U_r^{n+1} = U_r^n + dt (S^{n+1/2} - div F^{n+1/2}).

@@ -64,7 +64,7 @@ struct Options {
   bool surface_extrapolation = false, no_surface_extrapolation = false;
   bool free_edge_uniaxial = false, no_free_edge_uniaxial = false;
   std::vector<std::string> ul_ablation;  // SolverSettings::UpdatedLagrangianAblation switches
-  std::string virtual_motion = "real-interpolation";  // SolverSettings::VirtualMotion
+  std::string virtual_motion = "material-point";  // SolverSettings::VirtualMotion
   double end_time = 3.0, tolerance = 1e-5, kinetic_tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -161,7 +161,9 @@ int run(const Options& o) {
   if (o.no_free_edge_uniaxial) s.free_edge_uniaxial = false;
   s.virtual_motion = o.virtual_motion == "half-step-velocity"
                          ? SolverSettings<Dim>::VirtualMotion::half_step_velocity
-                         : SolverSettings<Dim>::VirtualMotion::real_interpolation;
+                     : o.virtual_motion == "real-interpolation"
+                         ? SolverSettings<Dim>::VirtualMotion::real_interpolation
+                         : SolverSettings<Dim>::VirtualMotion::material_point;
   for (const std::string& a : o.ul_ablation) {
     if (a == "frozen-geometry") s.ul_ablation.frozen_geometry = true;
     else if (a == "no-jaumann") s.ul_ablation.no_objective_rates = true;
@@ -277,10 +279,11 @@ int main(int argc, char** argv) {
                  "frozen-geometry, no-jaumann, no-density (any of them)")
       ->check(CLI::IsMember({"frozen-geometry", "no-jaumann", "no-density"}));
   app.add_option("--virtual-motion", o.virtual_motion,
-                 "updated Lagrangian: how the virtual particles move: real-interpolation (placed at "
+                 "updated Lagrangian: how the virtual particles move: material-point (their half-step "
+                 "velocity, put back at their material point at every half step) | real-interpolation (placed at "
                  "the initial interpolation of the real positions) | half-step-velocity (their own "
                  "half-step velocity; drifts, too stiff: README, Known problems)")
-      ->capture_default_str()->check(CLI::IsMember({"real-interpolation", "half-step-velocity"}));
+      ->capture_default_str()->check(CLI::IsMember({"material-point", "real-interpolation", "half-step-velocity"}));
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance,
                  "rest criterion: tip speed below this x (exact tip deflection / first-mode period)")
