@@ -252,6 +252,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.neighbor_search = c.neighbor_search;
   b.settings.transpose_lists = c.transpose_lists;
   b.settings.neighbor_skin = c.neighbor_skin;
+  b.settings.keep_virtual_fields = c.output_virtual;  // its frames write them (snapshot)
   b.material.emplace(c.young_modulus, c.poisson_ratio, c.density,
                      Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
   b.wave_speed = b.material->p_wave_speed(c.density);
@@ -343,13 +344,19 @@ CaseOverview inspect(const CaseFile& c) {
   } catch (const std::invalid_argument& e) {
     throw CaseError({c.path + ": " + e.what()});
   }
-  // Fields: 4 Dim vectors + stresses + mass, density, volume (doubles), 3 int32 tags;
-  // lists: a 4-byte index per pair, an 8-byte offset per row.
-  const double per_particle = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  // Fields: 4 Dim vectors + stresses + mass, density, volume (doubles), 3 int32 tags
+  // (the virtual set: 2 Dim vectors, no tags, unless its frames are written:
+  // SolverSettings::keep_virtual_fields); lists: a 4-byte index per pair, a 4-byte row
+  // start per row (NeighborList).
+  const double real_per_particle = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double virtual_per_particle =
+      c.output_virtual ? real_per_particle : 8.0 * (2 * Dim + stress_component_count<Dim> + 3);
   const double particles = static_cast<double>(o.real_particles + o.virtual_particles);
   const double pairs = static_cast<double>(solver->virtual_from_real().pair_count() +
                                            solver->real_from_virtual().pair_count());
-  o.memory_bytes = particles * per_particle + 4.0 * pairs + 8.0 * particles;
+  o.memory_bytes = static_cast<double>(o.real_particles) * real_per_particle +
+                   static_cast<double>(o.virtual_particles) * virtual_per_particle + 4.0 * pairs +
+                   4.0 * particles;
   return o;
 }
 
@@ -897,7 +904,7 @@ ResourceEstimate estimate(const CaseFile& c) {
   // checkpoint in the making (a copy of both sets, its byte buffer and the string
   // handed to the writer); the frame bookkeeping is held once more by the run.
   const double skin = c.kinematics == Kinematics::updated_lagrangian ? c.neighbor_skin : 0.0;
-  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, c.transpose_lists, skin) *
+  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, c.transpose_lists, skin, c.output_virtual) *
                        std::max(e.real_particles, e.virtual_particles) +
                    e.frame_bytes + 3.0 * (e.checkpoint_bytes - bookkeeping) + 4.0 * bookkeeping;
   return e;
