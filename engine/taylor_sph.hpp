@@ -148,8 +148,9 @@ struct SolverSettings {
   /// target; bench/RESULTS.md, memory_estimate.hpp). Off by default for that reason.
   bool transpose_lists = false;
   /// Verlet skin of the updated-Lagrangian neighbour lists, as a fraction of the support
-  /// radius 2h, in [0, 1]. 0 (the default): the lists are searched at every use (the
-  /// full step's list at the midpoint configuration, the others at x^n). s > 0: all
+  /// radius 2h, in [0, 1]; 0.05 by default (1.4-1.5x per step; bench/RESULTS.md). 0: the
+  /// lists are searched at every use (the full step's list at the midpoint
+  /// configuration, the others at x^n), one list held at a time. s > 0: all
   /// lists are searched with the radius (1 + s) 2h, kept across steps (the full step's
   /// is the transpose of the half step's), and searched again only when a pair may have
   /// come closer by more than the skin s 2h since the last search: a bound on each set's
@@ -163,8 +164,9 @@ struct SolverSettings {
   /// x^n at the midpoint, the run with skin the pairs within 2h at the midpoint (the
   /// two differ by pairs that cross the support edge within half a step). Not used in
   /// small strain (nothing moves). Both half-step lists are then held at once
-  /// (bench/RESULTS.md, memory_estimate.hpp).
-  double neighbor_skin = 0.0;
+  /// (bench/RESULTS.md, memory_estimate.hpp: 2D 365-372 B, 3D 764 B per real particle at the
+  /// peak, under the 400 B / 800 B targets of issue 4).
+  double neighbor_skin = 0.05;
   /// Locality: both particle sets are sorted into this order (cells of a quarter of the
   /// support radius, row by row or along the Z curve) when their order has decayed:
   /// when the mean index spread of the rows of the virtual -> real list (last - first
