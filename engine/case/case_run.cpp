@@ -887,10 +887,14 @@ ResourceEstimate estimate(const CaseFile& c) {
   e.frame_bytes = frame_bytes(e.real_particles, true) +
                   (c.output_virtual ? frame_bytes(e.virtual_particles, false) : 0.0);
   // A checkpoint (checkpoint.hpp): every field of both sets, 8 bytes per double field
-  // and 12 per particle for the three 4-byte tags, plus the .pvd lists and error records.
+  // and 12 per particle for the three 4-byte tags (the virtual set without the fields the
+  // solver releases unless its frames are written: SolverSettings::keep_virtual_fields),
+  // plus the .pvd lists and error records.
   const double set_bytes = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double virtual_set_bytes = c.output_virtual ? set_bytes : 8.0 * (2 * Dim + stress_component_count<Dim> + 3);
   const double bookkeeping = 256.0 * e.frames;  // per frame: .pvd entries, error records
-  e.checkpoint_bytes = set_bytes * (e.real_particles + e.virtual_particles) + bookkeeping + 4096.0;
+  e.checkpoint_bytes =
+      set_bytes * e.real_particles + virtual_set_bytes * e.virtual_particles + bookkeeping + 4096.0;
   // Probes: a row of 1 + 3 Dim + 7 numbers of 18 characters per probe_every steps
   // (and per frame); the .pvd lists: about 80 bytes per frame, twice (the file and its
   // temporary copy). Checkpoints: two kept and one being written.
