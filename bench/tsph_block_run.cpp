@@ -5,7 +5,7 @@
 //   tsph-block-run --dim 2 --particles 10000000 --steps 3 [--threads 2] [--alpha 1.2]
 //                  [--small-strain] [--order none|shuffled|cells|morton]
 //                  [--search auto|cell_list|kd_tree] [--transpose]
-//                  [--solver-order none|cells|morton] [--skin S]
+//                  [--solver-order none|cells|morton] [--skin S (default 0.05; 0: none)]
 #include "bench/block_case.hpp"
 #include "engine/memory_estimate.hpp"
 #include "engine/parallel.hpp"
@@ -39,7 +39,7 @@ struct Options {
   bool transpose_lists = false;  ///< SolverSettings::transpose_lists
   /// SolverSettings::spatial_order: the solver sorts the sets when their order decays.
   SpatialOrder solver_order = SpatialOrder::none;
-  double skin = 0.0;  ///< SolverSettings::neighbor_skin (fraction of 2h)
+  double skin = 0.05;  ///< SolverSettings::neighbor_skin (fraction of 2h; its default; 0: none)
 };
 
 [[noreturn]] void usage_error(const std::string& message) {

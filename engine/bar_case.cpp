@@ -128,6 +128,7 @@ BarResult run_bar(const BarCaseSettings& s) {
   settings.kernel = s.kernel;
   settings.interpolation = s.interpolation;
   settings.kinematics = s.kinematics;
+  settings.neighbor_skin = s.neighbor_skin;
   settings.body_force[0] = s.body_force;
   TaylorSph<1> solver(std::move(real), std::move(virtual_particles),
                       LinearElastic<1>(s.young_modulus, 0.0, s.density), settings, boundaries);

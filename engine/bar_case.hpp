@@ -29,6 +29,7 @@ struct BarCaseSettings {
   KernelKind kernel = KernelKind::cubic_spline;
   InterpolationKind interpolation = InterpolationKind::linear;
   Kinematics kinematics = Kinematics::small_strain;
+  double neighbor_skin = 0.05;    ///< SolverSettings::neighbor_skin (updated Lagrangian)
   BarEnd left_end = BarEnd::fixed;
   BarLoad right_load = BarLoad::velocity;
   double body_force = 0.0;        ///< b (m/s^2)

@@ -4,13 +4,21 @@
 //
 // The model follows what TaylorSph holds at its peak in an updated-Lagrangian step
 // (bench/RESULTS.md compares it with /usr/bin/time -v):
-//   * two particle sets (real, and about as many virtual), each per particle
-//     (4 Dim + stress components + 3) doubles and 3 int32;
-//   * v^n of the real particles (Dim doubles);
-//   * one half-step neighbour list at a time: offsets (8 B) plus 4 B per pair, with
-//     pi (2 alpha)^2 (2D) or 4/3 pi (2 alpha)^3 (3D) pairs per row (the support
-//     ball in lattice cells, an upper bound of the measured count);
-//   * the boundary list's offsets (8 B per real particle; boundary rows are few);
+//   * the real set, per particle (4 Dim + stress components + 3) doubles and 3 int32;
+//   * about as many virtual particles, each (3 Dim + stress components + 3) doubles:
+//     the solver releases the virtual set's optional fields (displacement, id, boundary,
+//     group; ParticleSet::release_optional_fields) unless
+//     SolverSettings::keep_virtual_fields (`keep_virtual_fields` here: + Dim doubles
+//     and 3 int32); the initial positions X_v (Dim doubles) are kept, read by the
+//     updated-Lagrangian virtual motion (SolverSettings::VirtualMotion::material_point,
+//     the default) and the hourglass stiffness (which also builds lists of its own: not
+//     modelled);
+//   * no v^n (the displacement takes dt/2 v^n before the full step; only the
+//     conservative momentum option stores it, Dim doubles: not modelled);
+//   * one half-step neighbour list at a time: 32-bit row starts (4 B) plus 4 B per
+//     pair, with pi (2 alpha)^2 (2D) or 4/3 pi (2 alpha)^3 (3D) pairs per row (the
+//     support ball in lattice cells, an upper bound of the measured count);
+//   * the boundary list's row starts (4 B per real particle; boundary rows are few);
 //   * the cell list being queried: sorted indices, their cells while binning, and
 //     the coordinates in cell order (8 + 8 Dim B);
 //   * with SolverSettings::transpose_lists, both half-step lists at once while the
@@ -37,24 +45,27 @@
 namespace tsph {
 
 template <int Dim>
-double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false, double skin = 0.0) {
+double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false, double skin = 0.0,
+                                        bool keep_virtual_fields = false) {
   if (!(alpha > 0.0) || !std::isfinite(alpha))
     throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
                                 " must be positive");
   if (!(skin >= 0.0) || !std::isfinite(skin))
     throw std::invalid_argument("memory estimate: skin = " + std::to_string(skin) + " must be >= 0");
-  const double set = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double real_set = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double virtual_set =
+      keep_virtual_fields ? real_set : 8.0 * (3 * Dim + stress_component_count<Dim> + 3);
+  const double sets = real_set + virtual_set;
   const double radius = 2.0 * alpha * (1.0 + skin);  // list radius in lattice spacings
   const double pairs = Dim == 1   ? 2.0 * radius
                        : Dim == 2 ? std::numbers::pi * radius * radius
                                   : 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
-  const double list = 8.0 + 4.0 * pairs;
-  const double previous_velocity = 8.0 * Dim;
-  const double boundary_offsets = 8.0;
+  const double list = 4.0 + 4.0 * pairs;
+  const double boundary_offsets = 4.0;
   const double cell_list = 8.0 + 8.0 * Dim;
-  if (skin > 0.0) return 2.0 * set + previous_velocity + 2.0 * list + boundary_offsets;
+  if (skin > 0.0) return sets + 2.0 * list + boundary_offsets;
   const double lists = transposed_lists ? 2.0 * list : list + cell_list;
-  return 2.0 * set + previous_velocity + lists + boundary_offsets;
+  return sets + lists + boundary_offsets;
 }
 
 /// Memory this process may use: MemAvailable of /proc/meminfo (0 if unknown).

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace tsph {
@@ -72,24 +73,65 @@ class ParticleSet {
 
   /// Current position, and the position at t = 0 (for displacements).
   std::array<std::vector<double>, Dim> position;
-  std::array<std::vector<double>, Dim> initial_position;
+  std::array<std::vector<double>, Dim> initial_position;  ///< optional (release_optional_fields)
   std::array<std::vector<double>, Dim> velocity;
-  /// Displacement from the initial position (integrated in every kinematics mode).
+  /// Displacement from the initial position (integrated in every kinematics mode);
+  /// optional (release_optional_fields).
   std::array<std::vector<double>, Dim> displacement;
   std::array<std::vector<double>, stress_count> stress;
   std::vector<double> mass;
   std::vector<double> density;
   std::vector<double> volume;  ///< m / rho, kept in step with density
   /// Index of the particle when the set was created; survives every `permute`.
+  /// Optional (release_optional_fields).
   std::vector<std::uint32_t> id;
-  /// Index into the case's boundary-condition table, or kNoBoundary.
+  /// Index into the case's boundary-condition table, or kNoBoundary. Optional.
   std::vector<std::int32_t> boundary;
-  /// User group number (from a particle file; 0 by default), for region selection.
+  /// User group number (from a particle file; 0 by default), for region selection. Optional.
   std::vector<std::int32_t> group;
 
   static constexpr std::int32_t kNoBoundary = -1;
 
   std::size_t size() const { return mass.size(); }
+
+  /// Whether the set holds the optional field `field` (one of initial_position,
+  /// displacement, id, boundary, group, or a component of them): every other field is
+  /// always held; an optional one is either held for every particle or released (empty).
+  template <class Field>
+  bool carries(const Field& field) const {
+    if constexpr (requires { field[0].size(); }) return field[0].size() == size();
+    else return field.size() == size();
+  }
+
+  /// Releases the optional fields a stepper does not read for this set (memory: the
+  /// virtual set of TaylorSph reads none of them, 44 B per particle in 2D, 60 B in 3D;
+  /// bench/RESULTS.md, Memory): displacement, id, boundary and group, and
+  /// initial_position unless `keep_initial_position`. `resize` and `permute` keep
+  /// released fields released.
+  void release_optional_fields(bool keep_initial_position) {
+    auto release = [](auto& field) { std::decay_t<decltype(field)>().swap(field); };
+    if (!keep_initial_position)
+      for (auto& a : initial_position) release(a);
+    for (auto& a : displacement) release(a);
+    release(id);
+    release(boundary);
+    release(group);
+  }
+
+  /// Throws std::invalid_argument (naming `who`) unless every field holds size()
+  /// values, the optional ones size() or none (released).
+  void check_field_sizes(const std::string& who) {
+    const std::size_t n = size();
+    std::size_t index = 0;
+    for_each_field([&](auto& field) {
+      const bool optional = is_optional_field(field);
+      if (field.size() != n && !(optional && field.empty()))
+        throw std::invalid_argument(who + ": per-particle field " + std::to_string(index) + " holds " +
+                                    std::to_string(field.size()) + " values for " + std::to_string(n) +
+                                    " particles" + (optional ? " (an optional field holds all or none)" : ""));
+      ++index;
+    });
+  }
 
   /// Visits every per-particle array. Adding a field means adding it here.
   template <class F>
@@ -107,20 +149,23 @@ class ParticleSet {
     f(group);
   }
 
-  /// Resizes every field; new particles are zeroed, ids numbered, unbounded.
+  /// Resizes every field; new particles are zeroed, ids numbered, unbounded. Optional
+  /// fields released from a non-empty set stay released.
   void resize(std::size_t n) {
     const std::size_t old = size();
-    for_each_field([n](auto& field) { field.resize(n); });
-    for (std::size_t i = old; i < n; ++i) {
-      id[i] = static_cast<std::uint32_t>(i);
-      boundary[i] = kNoBoundary;
-    }
+    for_each_field([&](auto& field) {
+      if (old == 0 || !field.empty()) field.resize(n);
+    });
+    for (std::size_t i = old; i < n && i < id.size(); ++i) id[i] = static_cast<std::uint32_t>(i);
+    for (std::size_t i = old; i < n && i < boundary.size(); ++i) boundary[i] = kNoBoundary;
   }
 
-  /// Reorders every field so that new particle i is old particle order[i].
+  /// Reorders every field so that new particle i is old particle order[i] (released
+  /// optional fields stay released).
   void permute(const std::vector<std::uint32_t>& order) {
     require_permutation(order, size(), "ParticleSet::permute");
     for_each_field([&order](auto& field) {
+      if (field.empty()) return;  // released, or no particles
       auto reordered = field;
       for (std::size_t i = 0; i < order.size(); ++i) reordered[i] = field[order[i]];
       field.swap(reordered);
@@ -145,6 +190,18 @@ class ParticleSet {
     Vector<Dim> x;
     for (int d = 0; d < Dim; ++d) x[d] = position[d][i];
     return x;
+  }
+
+ private:
+  /// Whether `field` (a vector this set owns) is one of the optional fields.
+  template <class Field>
+  bool is_optional_field(const Field& field) const {
+    for (int d = 0; d < Dim; ++d)
+      if (static_cast<const void*>(&field) == &initial_position[d] ||
+          static_cast<const void*>(&field) == &displacement[d])
+        return true;
+    return static_cast<const void*>(&field) == &id || static_cast<const void*>(&field) == &boundary ||
+           static_cast<const void*>(&field) == &group;
   }
 };
 

@@ -46,6 +46,7 @@ struct LinearStepAccess {
     visit_kernel<Dim>(s.settings_.kernel, [&](const auto& kernel) {
       s.boundary_gradients(kernel);
       s.half_step(kernel, dt);
+      s.begin_displacement(dt);
       s.full_step(kernel, dt);
       s.apply_boundary_conditions(dt, s.time_ + dt);
       if (s.settings_.hourglass_stiffness > 0.0) s.apply_hourglass_stiffness(kernel, dt);

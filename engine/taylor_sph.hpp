@@ -152,8 +152,9 @@ struct SolverSettings {
   /// target; bench/RESULTS.md, memory_estimate.hpp). Off by default for that reason.
   bool transpose_lists = false;
   /// Verlet skin of the updated-Lagrangian neighbour lists, as a fraction of the support
-  /// radius 2h, in [0, 1]. 0 (the default): the lists are searched at every use (the
-  /// full step's list at the midpoint configuration, the others at x^n). s > 0: all
+  /// radius 2h, in [0, 1]; 0.05 by default (1.4-1.5x per step; bench/RESULTS.md). 0: the
+  /// lists are searched at every use (the full step's list at the midpoint
+  /// configuration, the others at x^n), one list held at a time. s > 0: all
   /// lists are searched with the radius (1 + s) 2h, kept across steps (the full step's
   /// is the transpose of the half step's), and searched again only when a pair may have
   /// come closer by more than the skin s 2h since the last search: a bound on each set's
@@ -167,8 +168,9 @@ struct SolverSettings {
   /// x^n at the midpoint, the run with skin the pairs within 2h at the midpoint (the
   /// two differ by pairs that cross the support edge within half a step). Not used in
   /// small strain (nothing moves). Both half-step lists are then held at once
-  /// (bench/RESULTS.md, memory_estimate.hpp).
-  double neighbor_skin = 0.0;
+  /// (bench/RESULTS.md, memory_estimate.hpp: 2D 365-372 B, 3D 764 B per real particle at the
+  /// peak, under the 400 B / 800 B targets of issue 4).
+  double neighbor_skin = 0.05;
   /// Locality: both particle sets are sorted into this order (cells of a quarter of the
   /// support radius, row by row or along the Z curve) when their order has decayed:
   /// when the mean index spread of the rows of the virtual -> real list (last - first
@@ -220,6 +222,13 @@ struct SolverSettings {
     bool no_density_update = false;
   };
   UpdatedLagrangianAblation ul_ablation;
+  /// The virtual set keeps the optional fields of ParticleSet (initial positions,
+  /// displacements, ids, boundary and group tags) for callers that read them (the
+  /// virtual frames of `tsph run`). Off (the default): the constructor releases them
+  /// (ParticleSet::release_optional_fields), 44 B per virtual particle in 2D and 60 B in
+  /// 3D (bench/RESULTS.md, Memory): the stepper reads none of them, except the initial
+  /// positions with the hourglass stiffness, which are then kept.
+  bool keep_virtual_fields = false;
 };
 
 /// What the run did; fallbacks are counted per stencil evaluation.
@@ -354,6 +363,26 @@ class TaylorSph {
     if (settings_.free_edge_uniaxial && Dim != 3)
       throw std::invalid_argument("solver: free_edge_uniaxial applies to the edges of 3D bodies only (dimension " +
                                   std::to_string(Dim) + ")");
+    real_.check_field_sizes("solver: the real set");
+    virtual_.check_field_sizes("solver: the virtual set");
+    if (!real_.carries(real_.initial_position) || !real_.carries(real_.displacement) ||
+        !real_.carries(real_.id) || !real_.carries(real_.boundary))
+      throw std::invalid_argument("solver: the real set must carry its initial positions, displacements, "
+                                  "ids and boundary tags (released optional fields)");
+    // The virtual initial positions X_v: read by the hourglass stiffness and by the
+    // updated-Lagrangian virtual motions that keep the virtual particles at X_v.
+    const bool virtual_initial_positions =
+        settings_.hourglass_stiffness > 0.0 || settings_.keep_virtual_fields ||
+        (positions_move() && settings_.virtual_motion != SolverSettings<Dim>::VirtualMotion::half_step_velocity);
+    if (settings_.keep_virtual_fields
+            ? !(virtual_.carries(virtual_.initial_position) && virtual_.carries(virtual_.displacement) &&
+                virtual_.carries(virtual_.id) && virtual_.carries(virtual_.boundary) &&
+                virtual_.carries(virtual_.group))
+            : virtual_initial_positions && !virtual_.carries(virtual_.initial_position))
+      throw std::invalid_argument(
+          "solver: the virtual set has released optional fields that this run reads (the initial "
+          "positions for the hourglass stiffness or the updated-Lagrangian virtual motion, or every field with keep_virtual_fields)");
+    if (!settings_.keep_virtual_fields) virtual_.release_optional_fields(virtual_initial_positions);
     boundary_slot_.assign(real_.size(), -1);
     for (std::size_t i = 0; i < real_.size(); ++i) {
       const std::int32_t b = real_.boundary[i];
@@ -383,7 +412,8 @@ class TaylorSph {
     boundary_half_velocity_.assign(nb, Vec::Zero());
     boundary_gradient_sum_.assign(nb, Vec::Zero());
     boundary_stencil_offset_.assign(nb, Vec::Zero());
-    for (auto& v : previous_velocity_) v.resize(real_.size());
+    if (settings_.conservative_momentum)  // the only reader of v^n after the full step
+      for (auto& v : previous_velocity_) v.resize(real_.size());
     filtered_velocity_.assign(nb, Vec::Zero());
     double virtual_volume = 0.0;  // dx of the CFL in a diagnosis (check_stability)
     for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.volume[q];
@@ -445,8 +475,10 @@ class TaylorSph {
       half_step(kernel, dt);
       if (settings_.conservative_momentum) store_momentum_weights(kernel);
       if (positions_move()) {
-        move_to_midpoint(dt);
+        move_to_midpoint(dt);  // and begin_displacement's update
         if (skin_distance() > 0.0 && lists_outdated(dt)) search_lists();  // lists used at the midpoint
+      } else {
+        begin_displacement(dt);
       }
       full_step(kernel, dt);
       apply_boundary_conditions(dt, time_ + dt);
@@ -655,7 +687,8 @@ class TaylorSph {
     }
     return "solver: the solution diverged at step " + std::to_string(step) + " (t = " +
            format_number(time_ + dt) + " s): " + (is_real ? "real" : "virtual") + " particle " +
-           std::to_string(set.id[i]) + " at " + where + " " + what + "; likely cause: " + cause;
+           std::to_string(set.carries(set.id) ? set.id[i] : i) + " at " + where + " " + what +
+           "; likely cause: " + cause;
   }
 
   /// The boundary condition a particle is on (`own`), else that of the nearest boundary
@@ -908,6 +941,7 @@ class TaylorSph {
   /// xbar + G^{-1} (X_q - Xbar) (see there) with its half-step stencil w over the real
   /// row nb; returns the distance moved (0 where G is singular: the particle stays).
   double place_at_material_point(std::size_t q, std::span<const std::uint32_t> nb, const StencilWeights<Dim>& w) {
+    const bool virtual_displacement = virtual_.carries(virtual_.displacement);
     Vec reference_mean = Vec::Zero(), position_mean = Vec::Zero();
     for (std::size_t k = 0; k < nb.size(); ++k) {
       const std::uint32_t j = nb[k];
@@ -933,7 +967,7 @@ class TaylorSph {
     for (int d = 0; d < Dim; ++d) {
       moved += (placed[d] - virtual_.position[d][q]) * (placed[d] - virtual_.position[d][q]);
       virtual_.position[d][q] = placed[d];
-      virtual_.displacement[d][q] = placed[d] - virtual_.initial_position[d][q];
+      if (virtual_displacement) virtual_.displacement[d][q] = placed[d] - virtual_.initial_position[d][q];
     }
     return std::sqrt(moved);
   }
@@ -947,6 +981,7 @@ class TaylorSph {
     const PointsView<Dim> target_points = points_of<Dim>(real_);
     const double h = settings_.smoothing_length;
     const bool objective = objective_rates(), compressible = density_follows();
+    const bool store_previous_velocity = settings_.conservative_momentum;
     if (lists_used_once()) {  // the half step's list is done with: one list at a time
       real_from_virtual_ = NeighborList{};
       if (settings_.transpose_lists) {
@@ -961,7 +996,8 @@ class TaylorSph {
     add(parallel_for_with_scratch<StepScratch, StencilCounts>(
         target.count, [&](std::size_t r, StepScratch& scratch, StencilCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
-          for (int d = 0; d < Dim; ++d) previous_velocity_[d][r] = target.velocity[d][r];
+          if (store_previous_velocity)
+            for (int d = 0; d < Dim; ++d) previous_velocity_[d][r] = target.velocity[d][r];
           const auto nb = real_from_virtual_.neighbors(r);
           const StencilStatus status =
               compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
@@ -1346,7 +1382,7 @@ class TaylorSph {
     parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
         target.count, [&](std::size_t q, StencilWeights<Dim>& w, StencilCounts&) {
           const auto nb = virtual_from_real_.neighbors(q);
-          const std::size_t first = virtual_from_real_.offsets[q];
+          const std::size_t first = virtual_from_real_.row_begin(q);
           const StencilStatus status =
               compute_stencil<Dim>(kernel, settings_.smoothing_length, target.position_of(q),
                                    source_points, real_.volume.data(), nb,
@@ -1357,15 +1393,15 @@ class TaylorSph {
             momentum_weight_[first + k] =
                 status.no_neighbors ? Vec(Vec::Zero()) : Vec(w.gradient_of(k) - w.value[k] * sum);
         });
-    momentum_pairs_.offsets.assign(real_.size() + 1, 0);
-    for (std::uint32_t j : virtual_from_real_.indices) ++momentum_pairs_.offsets[j + 1];
+    momentum_pair_offsets_.assign(real_.size() + 1, 0);
+    for (std::uint32_t j : virtual_from_real_.indices) ++momentum_pair_offsets_[j + 1];
     for (std::size_t i = 0; i < real_.size(); ++i)
-      momentum_pairs_.offsets[i + 1] += momentum_pairs_.offsets[i];
+      momentum_pair_offsets_[i + 1] += momentum_pair_offsets_[i];
     momentum_pair_.resize(virtual_from_real_.pair_count());
     momentum_pair_virtual_.resize(virtual_from_real_.pair_count());
-    std::vector<std::uint64_t> fill(momentum_pairs_.offsets.begin(), momentum_pairs_.offsets.end() - 1);
+    std::vector<std::uint64_t> fill(momentum_pair_offsets_.begin(), momentum_pair_offsets_.end() - 1);
     for (std::size_t q = 0; q < virtual_.size(); ++q)
-      for (std::uint64_t p = virtual_from_real_.offsets[q]; p < virtual_from_real_.offsets[q + 1]; ++p) {
+      for (std::uint64_t p = virtual_from_real_.row_begin(q); p < virtual_from_real_.row_begin(q + 1); ++p) {
         const std::uint64_t slot = fill[virtual_from_real_.indices[p]]++;
         momentum_pair_[slot] = p;
         momentum_pair_virtual_[slot] = static_cast<std::uint32_t>(q);
@@ -1391,7 +1427,7 @@ class TaylorSph {
         if (traction.squaredNorm() > 0.0) return;  // a loaded surface keeps its characteristics
       }
       Vec force = Vec::Zero();
-      for (std::uint64_t slot = momentum_pairs_.offsets[i]; slot < momentum_pairs_.offsets[i + 1]; ++slot) {
+      for (std::uint64_t slot = momentum_pair_offsets_[i]; slot < momentum_pair_offsets_[i + 1]; ++slot) {
         const std::uint32_t q = momentum_pair_virtual_[slot];
         const Vec& weight = momentum_weight_[momentum_pair_[slot]];
         for (int a = 0; a < Dim; ++a)
@@ -1482,10 +1518,9 @@ class TaylorSph {
     auto coefficient = [&](const LinearFitWeights& f, const Vec& dx, double kernel_h) {
       return kernel.value(dx.norm(), kernel_h) / f.weight_sum * f.first_column.dot(basis(dx));
     };
-    auto displacement = [&](std::uint32_t j) {  // u^n + dt/2 v^n
+    auto displacement = [&](std::uint32_t j) {  // u^n + dt/2 v^n (begin_displacement)
       Vec u;
-      for (int d = 0; d < Dim; ++d)
-        u[d] = real_.displacement[d][j] + 0.5 * dt * previous_velocity_[d][j];
+      for (int d = 0; d < Dim; ++d) u[d] = real_.displacement[d][j];
       return u;
     };
     // The half-step lists with a skin also hold pairs beyond 2h at the current positions
@@ -1608,12 +1643,16 @@ class TaylorSph {
   /// (omega J - dt/2 omega^2) (x^n - c) has divergence -omega^2 dt, a spurious
   /// compression that grew the pressure linearly in time (README, objectivity). In the
   /// midpoint configuration its gradient is skew to O(dt^2). A non-finite velocity
-  /// leaves its particle where it is (check_stability reports it).
+  /// leaves its particle where it is (check_stability reports it). The real set's pass
+  /// also makes begin_displacement's update (the same increment dt/2 v^n).
   void move_to_midpoint(double dt) {
     const double half_dt = 0.5 * dt;
     parallel_for(real_.size(), [&](std::size_t i) {
       for (int d = 0; d < Dim; ++d)
-        if (std::isfinite(real_.velocity[d][i])) real_.position[d][i] += half_dt * real_.velocity[d][i];
+        if (std::isfinite(real_.velocity[d][i])) {
+          real_.position[d][i] += half_dt * real_.velocity[d][i];
+          real_.displacement[d][i] += half_dt * real_.velocity[d][i];
+        }
     });
     if (virtual_follows_real()) {
       place_virtual_particles();
@@ -1630,6 +1669,7 @@ class TaylorSph {
   /// virtual displacement x_v - X_v) for every virtual particle with a row; one without
   /// real neighbours at x^0 keeps the move by its own velocity.
   void place_virtual_particles() {
+    const bool virtual_displacement = virtual_.carries(virtual_.displacement);
     parallel_for(virtual_.size(), [&](std::size_t v) {
       const auto row = virtual_follow_.neighbors(v);
       if (row.empty()) return;
@@ -1638,7 +1678,7 @@ class TaylorSph {
       for (std::size_t k = 0; k < row.size(); ++k) x += virtual_follow_weight_[first + k] * real_.position_of(row[k]);
       for (int d = 0; d < Dim; ++d) {
         virtual_.position[d][v] = x[d];
-        virtual_.displacement[d][v] = x[d] - virtual_.initial_position[d][v];
+        if (virtual_displacement) virtual_.displacement[d][v] = x[d] - virtual_.initial_position[d][v];
       }
     });
   }
@@ -1680,25 +1720,39 @@ class TaylorSph {
     return positions_move() && settings_.virtual_motion == SolverSettings<Dim>::VirtualMotion::real_interpolation;
   }
 
-  /// Step 5: displacements with the mean of v^n and v^{n+1}; in updated-Lagrangian
-  /// mode the real particles move so, the virtual ones with v^{n+1/2}: both sets are
-  /// at the midpoint configuration (move_to_midpoint), so the real ones take the
-  /// second half dt/2 v^{n+1}, the virtual ones dt/2 v^{n+1/2}.
+  /// Step 1b in small strain (updated Lagrangian: move_to_midpoint): the first half of
+  /// the displacement update u^{n+1} = u^n + dt/2 (v^n + v^{n+1}), u += dt/2 v^n, made
+  /// before the full step overwrites v^n, so that v^n need not be stored (Dim doubles
+  /// per real particle; memory). The hourglass stiffness reads u^n + dt/2 v^n from here.
+  void begin_displacement(double dt) {
+    const double half_dt = 0.5 * dt;
+    parallel_for(real_.size(), [&](std::size_t i) {
+      for (int d = 0; d < Dim; ++d) real_.displacement[d][i] += half_dt * real_.velocity[d][i];
+    });
+  }
+
+  /// Step 5: displacements with the mean of v^n and v^{n+1} (the second half, dt/2
+  /// v^{n+1}; begin_displacement added dt/2 v^n); in updated-Lagrangian mode the real
+  /// particles move so, the virtual ones with v^{n+1/2}: both sets are at the midpoint
+  /// configuration (move_to_midpoint), so the real ones take the second half dt/2
+  /// v^{n+1}, the virtual ones dt/2 v^{n+1/2} (and their displacement, if carried,
+  /// dt v^{n+1/2}).
   void move(double dt) {
     const bool moving = positions_move();
     const double half_dt = 0.5 * dt;
     parallel_for(real_.size(), [&](std::size_t i) {
       for (int d = 0; d < Dim; ++d) {
-        real_.displacement[d][i] += half_dt * (previous_velocity_[d][i] + real_.velocity[d][i]);
+        real_.displacement[d][i] += half_dt * real_.velocity[d][i];
         if (moving) real_.position[d][i] += half_dt * real_.velocity[d][i];
       }
     });
+    const bool virtual_displacement = virtual_.carries(virtual_.displacement);
     if (virtual_follows_real()) {
       place_virtual_particles();
     } else if (moving) {
       parallel_for(virtual_.size(), [&](std::size_t i) {
         for (int d = 0; d < Dim; ++d) {
-          virtual_.displacement[d][i] += dt * virtual_.velocity[d][i];
+          if (virtual_displacement) virtual_.displacement[d][i] += dt * virtual_.velocity[d][i];
           virtual_.position[d][i] += half_dt * virtual_.velocity[d][i];
         }
       });
@@ -1845,6 +1899,7 @@ class TaylorSph {
     real_.permute(real_order);
     virtual_.permute(virtual_order);
     for (auto& v : previous_velocity_) {
+      if (v.empty()) continue;  // not stored (begin_displacement)
       std::vector<double> reordered(v.size());
       for (std::size_t k = 0; k < real_order.size(); ++k) reordered[k] = v[real_order[k]];
       v.swap(reordered);
@@ -1908,7 +1963,7 @@ class TaylorSph {
     virtual_value_.clear();
     round_trip_residual_.clear();
     momentum_weight_.clear();
-    momentum_pairs_ = NeighborList{};
+    momentum_pair_offsets_.clear();
     momentum_pair_.clear();
     momentum_pair_virtual_.clear();
   }
@@ -2072,7 +2127,9 @@ class TaylorSph {
   std::vector<Vec> boundary_half_velocity_;   ///< v^{n+1/2} interpolated at the particle
   std::vector<Vec> boundary_stencil_offset_;  ///< x_I - centroid of its virtual stencil
   std::vector<Vec> boundary_gradient_sum_;    ///< sum_J V_J Gn_IJ over its virtual stencil
-  std::array<std::vector<double>, Dim> previous_velocity_;  ///< v^n of the real particles
+  /// v^n of the real particles, stored by the full step only for the conservative
+  /// momentum update (the displacement takes dt/2 v^n in begin_displacement).
+  std::array<std::vector<double>, Dim> previous_velocity_;
   std::vector<Vec> filtered_velocity_;  ///< hourglass filter scratch, per boundary slot
   // Hourglass stiffness scratch (apply_hourglass_stiffness).
   std::vector<LinearFitWeights> forward_fit_;   ///< A, per virtual particle
@@ -2081,7 +2138,7 @@ class TaylorSph {
   std::vector<Vec> round_trip_residual_;        ///< V_I r_I
   // Conservative momentum scratch (store_momentum_weights).
   std::vector<Vec> momentum_weight_;          ///< D_vJ per pair of virtual_from_real_
-  NeighborList momentum_pairs_;               ///< offsets only: rows of real particles
+  std::vector<std::uint64_t> momentum_pair_offsets_;  ///< row starts, rows of real particles
   std::vector<std::uint64_t> momentum_pair_;  ///< pair index, row by real particle
   std::vector<std::uint32_t> momentum_pair_virtual_;  ///< its virtual particle
   NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)

@@ -11,14 +11,15 @@ NeighborList brute_force_neighbors(const PointsView<Dim>& query,
                                    const PointsView<Dim>& source, double radius) {
   validate_search_input(query, source, radius);
   const double radius2 = radius * radius;
-  NeighborList list;
-  list.offsets.assign(query.count + 1, 0);
-  for (std::size_t i = 0; i < query.count; ++i) {
+  std::vector<std::uint32_t> counts(query.count + 1, 0), indices;
+  for (std::size_t i = 0; i < query.count; ++i)
     for (std::size_t j = 0; j < source.count; ++j)
-      if (squared_distance(query, i, source, j) <= radius2)
-        list.indices.push_back(static_cast<std::uint32_t>(j));
-    list.offsets[i + 1] = list.indices.size();
-  }
+      if (squared_distance(query, i, source, j) <= radius2) {
+        indices.push_back(static_cast<std::uint32_t>(j));
+        ++counts[i + 1];
+      }
+  NeighborList list = NeighborList::from_row_counts(std::move(counts));
+  list.indices = std::move(indices);
   return list;
 }
 

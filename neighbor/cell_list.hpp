@@ -56,8 +56,7 @@ class CellList {
   template <class RowOf>
   NeighborList query_rows(const PointsView<Dim>& points, std::size_t row_count, RowOf row_of,
                           bool exclude_self) const {
-    NeighborList list;
-    list.offsets.assign(points.count + 1, 0);
+    std::vector<std::uint32_t> counts(points.count + 1, 0);  // counts[i + 1]: row i
     const double radius2 = radius_ * radius_;
     parallel_for(row_count, [&](std::size_t k) {
       const std::size_t i = row_of(k);
@@ -69,13 +68,12 @@ class CellList {
       if (exclude_self && found > 0 && i < source_.count &&
           squared_distance(points, i, source_, i) <= radius2)
         --found;
-      list.offsets[i + 1] = found;
+      counts[i + 1] = static_cast<std::uint32_t>(found);  // at most the source count (32-bit indices)
     });
-    for (std::size_t i = 0; i < points.count; ++i) list.offsets[i + 1] += list.offsets[i];
-    list.indices.resize(list.offsets.back());
+    NeighborList list = NeighborList::from_row_counts(std::move(counts));
     parallel_for(row_count, [&](std::size_t k) {
       const std::size_t i = row_of(k);
-      std::uint32_t* row = list.indices.data() + list.offsets[i];
+      std::uint32_t* row = list.indices.data() + list.row_begin(i);
       std::size_t n = 0;
       visit_candidates(points, i, [&](std::uint32_t j) {
         if (!(exclude_self && j == i)) row[n++] = j;

@@ -118,8 +118,6 @@ class KdTree {
   template <class RowOf>
   NeighborList query_rows(const PointsView<Dim>& points, std::size_t row_count, RowOf row_of,
                           bool exclude_self) const {
-    NeighborList list;
-    list.offsets.assign(points.count + 1, 0);
     std::vector<std::vector<std::uint32_t>> rows(points.count);
     const double radius2 = radius_ * radius_;
     const double search2 = radius2 * (1.0 + 1e-12);
@@ -143,11 +141,11 @@ class KdTree {
         }
         std::sort(row.begin(), row.end());
       });
-    for (std::size_t i = 0; i < points.count; ++i)
-      list.offsets[i + 1] = list.offsets[i] + rows[i].size();
-    list.indices.resize(list.offsets.back());
+    std::vector<std::uint32_t> counts(points.count + 1, 0);
+    for (std::size_t i = 0; i < points.count; ++i) counts[i + 1] = static_cast<std::uint32_t>(rows[i].size());
+    NeighborList list = NeighborList::from_row_counts(std::move(counts));
     parallel_for(points.count, [&](std::size_t i) {
-      std::copy(rows[i].begin(), rows[i].end(), list.indices.begin() + static_cast<std::ptrdiff_t>(list.offsets[i]));
+      std::copy(rows[i].begin(), rows[i].end(), list.indices.begin() + static_cast<std::ptrdiff_t>(list.row_begin(i)));
     });
     return list;
   }

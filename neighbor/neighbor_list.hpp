@@ -22,16 +22,49 @@
 
 namespace tsph {
 
+/// Row starts are 32-bit while the pair count fits in 32 bits (4 B per row instead of
+/// 8: 12 B per real particle with the skin's lists; bench/RESULTS.md, Memory), 64-bit
+/// beyond (wide_offsets); one predictable branch per row read.
 struct NeighborList {
-  std::vector<std::uint64_t> offsets{0};  ///< size query_count() + 1
-  std::vector<std::uint32_t> indices;     ///< source indices, row by row
+  std::vector<std::uint32_t> offsets{0};    ///< row starts, size query_count() + 1; empty if wide()
+  std::vector<std::uint64_t> wide_offsets;  ///< the row starts of a list of 2^32 pairs or more
+  std::vector<std::uint32_t> indices;       ///< source indices, row by row
 
-  std::size_t query_count() const { return offsets.size() - 1; }
+  bool wide() const { return !wide_offsets.empty(); }
+  std::size_t query_count() const { return (wide() ? wide_offsets.size() : offsets.size()) - 1; }
   std::size_t pair_count() const { return indices.size(); }
+  /// Index into `indices` of row i's first entry (i = query_count(): the pair count).
+  std::uint64_t row_begin(std::size_t i) const { return wide() ? wide_offsets[i] : offsets[i]; }
   std::span<const std::uint32_t> neighbors(std::size_t i) const {
+    if (wide()) return {indices.data() + wide_offsets[i], indices.data() + wide_offsets[i + 1]};
     return {indices.data() + offsets[i], indices.data() + offsets[i + 1]};
   }
   bool operator==(const NeighborList&) const = default;
+
+  /// The list whose row i holds counts[i + 1] entries (counts[0] = 0, one count per
+  /// row after it): the counts become the row starts (their prefix sums, in place while
+  /// the pair count is at most `narrow_limit`, else 64-bit; tests lower the limit), and
+  /// `indices` is sized for the pairs, for the caller to fill row i from row_begin(i).
+  static NeighborList from_row_counts(std::vector<std::uint32_t> counts,
+                                      std::uint64_t narrow_limit = UINT32_MAX) {
+    if (counts.empty()) counts.push_back(0);
+    std::uint64_t pairs = 0;
+    for (std::size_t i = 1; i < counts.size(); ++i) pairs += counts[i];
+    NeighborList list;
+    if (pairs <= narrow_limit && pairs <= UINT32_MAX) {
+      counts[0] = 0;
+      for (std::size_t i = 1; i < counts.size(); ++i) counts[i] += counts[i - 1];
+      list.offsets = std::move(counts);
+    } else {
+      list.offsets.clear();
+      list.wide_offsets.resize(counts.size());
+      list.wide_offsets[0] = 0;
+      for (std::size_t i = 1; i < counts.size(); ++i) list.wide_offsets[i] = list.wide_offsets[i - 1] + counts[i];
+      std::vector<std::uint32_t>().swap(counts);
+    }
+    list.indices.resize(pairs);
+    return list;
+  }
 };
 
 /// Read-only view of point coordinates in structure-of-arrays form.
@@ -128,15 +161,15 @@ void validate_search_input(const PointsView<Dim>& query, const PointsView<Dim>& 
 /// scratch memory: each thread owns a contiguous range of sources (result rows), reads
 /// every pair and counts, then fills, only the entries of its range, in row order; the
 /// result does not depend on the thread count.
-inline NeighborList transpose(const NeighborList& list, std::size_t source_count) {
+/// `narrow_limit`: as in NeighborList::from_row_counts.
+inline NeighborList transpose(const NeighborList& list, std::size_t source_count,
+                              std::uint64_t narrow_limit = UINT32_MAX) {
   const std::size_t rows = list.query_count();
   if (source_count > std::size_t{UINT32_MAX} || rows > std::size_t{UINT32_MAX})
     throw std::invalid_argument("transpose: more points than 32-bit indices hold");
   const std::size_t blocks = static_cast<std::size_t>(std::max(1, thread_count()));
-  NeighborList result;
-  // offsets[j + 1] counts source j; after the prefix sum offsets[j] is row j's start.
-  result.offsets.assign(source_count + 1, 0);
-  std::uint64_t* offsets = result.offsets.data();
+  // counts[j + 1] counts source j (a row of the result).
+  std::vector<std::uint32_t> counts(source_count + 1, 0);
   const std::uint32_t* indices = list.indices.data();
   const std::size_t pairs = list.indices.size();
   parallel_for(blocks, [&](std::size_t b) {
@@ -144,28 +177,29 @@ inline NeighborList transpose(const NeighborList& list, std::size_t source_count
     const std::uint32_t span = static_cast<std::uint32_t>(source_count * (b + 1) / blocks) - first;
     for (std::size_t k = 0; k < pairs; ++k) {
       const std::uint32_t j = indices[k];
-      if (j - first < span) ++offsets[j + 1];  // first <= j < first + span (unsigned)
+      if (j - first < span) ++counts[j + 1];  // first <= j < first + span (unsigned)
     }
   });
-  for (std::size_t j = 0; j < source_count; ++j) result.offsets[j + 1] += result.offsets[j];
-  if (result.offsets.back() != pairs)  // an index no block owns: not below source_count
+  NeighborList result = NeighborList::from_row_counts(std::move(counts), narrow_limit);
+  if (result.pair_count() != pairs)  // an index no block owns: not below source_count
     throw std::invalid_argument("transpose: an index is not below the source count " +
                                 std::to_string(source_count));
-  result.indices.resize(result.offsets.back());
-  // Fill, with offsets[j] as the cursor of row j (it ends at row j + 1's start), then
-  // shift the offsets back by one row.
+  // Fill, with the row starts as the cursor of each row j (it ends at row j + 1's
+  // start), then shift the row starts back by one row.
   std::uint32_t* out = result.indices.data();
-  parallel_for(blocks, [&](std::size_t b) {
-    const std::uint32_t first = static_cast<std::uint32_t>(source_count * b / blocks);
-    const std::uint32_t span = static_cast<std::uint32_t>(source_count * (b + 1) / blocks) - first;
-    for (std::size_t i = 0; i < rows; ++i)
-      for (std::uint64_t k = list.offsets[i]; k < list.offsets[i + 1]; ++k) {
-        const std::uint32_t j = indices[k];
-        if (j - first < span) out[offsets[j]++] = static_cast<std::uint32_t>(i);
-      }
-  });
-  for (std::size_t j = source_count; j > 0; --j) result.offsets[j] = result.offsets[j - 1];
-  result.offsets[0] = 0;
+  auto fill = [&](auto* cursor) {
+    parallel_for(blocks, [&](std::size_t b) {
+      const std::uint32_t first = static_cast<std::uint32_t>(source_count * b / blocks);
+      const std::uint32_t span = static_cast<std::uint32_t>(source_count * (b + 1) / blocks) - first;
+      for (std::size_t i = 0; i < rows; ++i)
+        for (const std::uint32_t j : list.neighbors(i))
+          if (j - first < span) out[cursor[j]++] = static_cast<std::uint32_t>(i);
+    });
+    for (std::size_t j = source_count; j > 0; --j) cursor[j] = cursor[j - 1];
+    cursor[0] = 0;
+  };
+  if (result.wide()) fill(result.wide_offsets.data());
+  else fill(result.offsets.data());
   return result;
 }
 

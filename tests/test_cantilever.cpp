@@ -311,8 +311,11 @@ TEST_P(CantileverPermutation, RenumberedParticlesRunAsTheLattice) {
   for (std::size_t k = 0; k < real.size(); ++k) permuted = permuted || renumbered.real().id[k] != k;
   EXPECT_TRUE(permuted);
   for (int k = steps / 2; k < steps; ++k) renumbered.step(model.time_step);
-  // Updated Lagrangian: the random order has decayed, so the next rebuild sorts it.
-  EXPECT_EQ(renumbered.counters().reorders, moving ? 1 : 0);
+  // Updated Lagrangian: the random order has decayed, so the next rebuild sorts it;
+  // with the default Verlet skin the order is checked only when the lists run out at x^n
+  // (rebuild_neighbors), which does not happen in the remaining steps here (measured:
+  // no sort), and the run still equals the lattice's.
+  EXPECT_EQ(renumbered.counters().reorders, moving && settings.neighbor_skin == 0.0 ? 1 : 0);
   expect_same_up_to_permutation(renumbered.real(), lattice.real(), "permuted at random mid-run");
 
   // Not a permutation: refused, with the set named.

@@ -125,7 +125,8 @@ TEST_F(CaseFileTest, SolverKeysAreReadAndValidated) {
   }
   EXPECT_FALSE(load_case(write("default.toml", kValid2d)).transpose_lists);
   EXPECT_TRUE(load_case(write("t.toml", kValid2d + "[solver]\ntranspose_lists = true\n")).transpose_lists);
-  EXPECT_EQ(load_case(write("default.toml", kValid2d)).neighbor_skin, 0.0);
+  EXPECT_EQ(load_case(write("default.toml", kValid2d)).neighbor_skin, 0.05);  // SolverSettings' default
+  EXPECT_EQ(load_case(write("s0.toml", kValid2d + "[solver]\nneighbor_skin = 0\n")).neighbor_skin, 0.0);
   EXPECT_EQ(load_case(write("s.toml", kValid2d + "[solver]\nneighbor_skin = 0.1\n")).neighbor_skin, 0.1);
   const std::string bad_skin = error_of(kValid2d + "[solver]\nneighbor_skin = 1.5\n");
   EXPECT_NE(bad_skin.find("solver.neighbor_skin = 1.5 is invalid: must lie in [0, 1]"), std::string::npos)

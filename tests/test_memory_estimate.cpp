@@ -16,19 +16,25 @@ namespace tsph {
 namespace {
 
 TEST(MemoryEstimate, CountsSetsListsAndCellList) {
-  // 2D: two sets of 15 doubles + 3 int32 (264 B), v^n 16 B, one list of pi 2.4^2 pairs
-  // (8 + 4 x 18.1 = 80.4 B), boundary offsets 8 B, cell list 24 B.
-  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2), 264.0 + 16.0 + 80.38 + 8.0 + 24.0, 0.1);
-  // 3D: two sets of 21 doubles + 3 int32 (360 B), 24 B, 8 + 4 x 57.9 B, 8 B, 32 B.
-  EXPECT_NEAR(estimate_bytes_per_real_particle<3>(1.2), 360.0 + 24.0 + 239.6 + 8.0 + 32.0, 0.2);
+  // 2D: the real set, 15 doubles + 3 int32 (132 B), the virtual set without its optional
+  // fields but with its initial positions (the updated-Lagrangian virtual motion), 13
+  // doubles (104 B), no v^n, one list of pi 2.4^2 pairs with 32-bit row starts
+  // (4 + 4 x 18.1 = 76.4 B), boundary row starts 4 B, cell list 24 B.
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2), 132.0 + 104.0 + 76.38 + 4.0 + 24.0, 0.1);
+  // 3D: 21 doubles + 3 int32 (180 B), 18 doubles (144 B), 4 + 4 x 57.9 B, 4 B, 32 B.
+  EXPECT_NEAR(estimate_bytes_per_real_particle<3>(1.2), 180.0 + 144.0 + 235.6 + 4.0 + 32.0, 0.2);
+  // The virtual set with every field (SolverSettings::keep_virtual_fields): Dim doubles
+  // (the displacements) and 3 int32 more.
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.0, true) - estimate_bytes_per_real_particle<2>(1.2),
+              28.0, 1e-9);
   // More neighbours, more memory.
   EXPECT_GT(estimate_bytes_per_real_particle<3>(1.6), estimate_bytes_per_real_particle<3>(1.2));
-  // Transposed lists: two lists (8 B offsets + 4 B per pair each) instead of one and the cell list.
-  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, true), 264.0 + 16.0 + 2.0 * 80.38 + 8.0, 0.2);
-  // A skin of 10 % of 2h: two lists of 1.1^2 the pairs (8 + 4 x 21.9 B each); no stored
+  // Transposed lists: two lists (4 B row starts + 4 B per pair each) instead of one and the cell list.
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, true), 132.0 + 104.0 + 2.0 * 76.38 + 4.0, 0.2);
+  // A skin of 10 % of 2h: two lists of 1.1^2 the pairs (4 + 4 x 21.9 B each); no stored
   // positions (path bounds), no cell list at the peak.
   EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.1),
-              264.0 + 16.0 + 2.0 * (8.0 + 4.0 * 1.21 * 18.096) + 8.0, 0.2);
+              132.0 + 104.0 + 2.0 * (4.0 + 4.0 * 1.21 * 18.096) + 4.0, 0.2);
   for (double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()})
     EXPECT_THROW(estimate_bytes_per_real_particle<2>(bad), std::invalid_argument);
   EXPECT_THROW(estimate_bytes_per_real_particle<2>(1.2, false, -0.1), std::invalid_argument);
@@ -53,7 +59,9 @@ TEST(MemoryEstimate, RefusesACountThatDoesNotFitWithTheEstimateAndTheLimit) {
 }
 
 TEST(MemoryEstimate, UpdatedLagrangianHoldsOneCurrentHalfStepList) {
-  auto solver = bench::make_block<2>(900, 1.2);
+  // Without skin (with the default skin both lists are kept: the next test).
+  auto solver = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
+                                     [](SolverSettings<2>& settings) { settings.neighbor_skin = 0.0; });
   const double dt = bench::block_time_step(solver, 1.2);
   for (int k = 0; k < 3; ++k) solver.step(dt);
   EXPECT_EQ(solver.real_from_virtual().pair_count(), 0u);  // released until the full step
@@ -63,6 +71,63 @@ TEST(MemoryEstimate, UpdatedLagrangianHoldsOneCurrentHalfStepList) {
       points_of<2>(virtual_particles), points_of<2>(real), solver.support_radius());
   EXPECT_TRUE(solver.virtual_from_real() == expected);  // built at the moved positions
   EXPECT_GT(expected.pair_count(), 10 * virtual_particles.size());
+}
+
+// What the model counts besides the lists: the virtual set without its optional fields
+// (released by the solver unless keep_virtual_fields; the hourglass stiffness keeps the
+// initial positions), no v^n, 32-bit row starts; with a skin both half-step lists are
+// kept between steps.
+TEST(MemoryEstimate, SolverReleasesWhatItDoesNotRead) {
+  auto solver = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
+                                     [](SolverSettings<2>& settings) { settings.neighbor_skin = 0.05; });
+  const double dt = bench::block_time_step(solver, 1.2);
+  for (int k = 0; k < 2; ++k) solver.step(dt);
+  const auto& virtual_particles = solver.virtual_particles();
+  for (int d = 0; d < 2; ++d) {
+    EXPECT_TRUE(virtual_particles.initial_position[d].empty());
+    EXPECT_TRUE(virtual_particles.displacement[d].empty());
+    EXPECT_EQ(virtual_particles.position[d].size(), virtual_particles.size());
+  }
+  EXPECT_TRUE(virtual_particles.id.empty());
+  EXPECT_TRUE(virtual_particles.boundary.empty());
+  EXPECT_TRUE(virtual_particles.group.empty());
+  EXPECT_TRUE(solver.real().carries(solver.real().displacement));
+  EXPECT_GT(solver.real_from_virtual().pair_count(), 0u);  // the skin keeps both lists
+  EXPECT_FALSE(solver.virtual_from_real().wide());
+  EXPECT_EQ(solver.virtual_from_real().offsets.size(), virtual_particles.size() + 1);
+
+  auto kept = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
+                                   [](SolverSettings<2>& settings) {
+                                     settings.keep_virtual_fields = true;
+                                     settings.neighbor_skin = 0.05;
+                                   });
+  auto stiff = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
+                                    [](SolverSettings<2>& settings) { settings.hourglass_stiffness = 0.05; });
+  for (int k = 0; k < 2; ++k) kept.step(dt), stiff.step(dt);
+  const auto& full = kept.virtual_particles();
+  for (int d = 0; d < 2; ++d) {
+    EXPECT_EQ(full.displacement[d].size(), full.size());
+    EXPECT_EQ(stiff.virtual_particles().initial_position[d].size(), full.size());
+    EXPECT_TRUE(stiff.virtual_particles().displacement[d].empty());
+    for (std::size_t q = 0; q < full.size(); ++q)  // x = X + u (the virtual displacement moves with x)
+      ASSERT_NEAR(full.position[d][q], full.initial_position[d][q] + full.displacement[d][q], 1e-15) << q;
+  }
+  EXPECT_EQ(full.id.size(), full.size());
+  // The same run whether the virtual set keeps its fields or not.
+  for (int d = 0; d < 2; ++d) {
+    EXPECT_EQ(kept.real().velocity[d], solver.real().velocity[d]);
+    EXPECT_EQ(kept.real().displacement[d], solver.real().displacement[d]);
+  }
+  // A slim set handed to a solver that must keep every field is refused.
+  ParticleSet<2> real = solver.real(), slim = solver.virtual_particles();
+  SolverSettings<2> settings = solver.settings();
+  settings.keep_virtual_fields = true;
+  EXPECT_THROW(TaylorSph<2>(real, slim, solver.material(), settings, {BoundaryCondition<2>::fixed("clamp"),
+                                                                      BoundaryCondition<2>::free("end")}),
+               std::invalid_argument);
+  settings.keep_virtual_fields = false;
+  EXPECT_NO_THROW(TaylorSph<2>(real, slim, solver.material(), settings, {BoundaryCondition<2>::fixed("clamp"),
+                                                                         BoundaryCondition<2>::free("end")}));
 }
 
 }  // namespace

@@ -60,11 +60,12 @@ Points<Dim> random_points(std::size_t count, double low, double high, std::uint6
 /// count, and every row is strictly increasing with indices below `source_count`.
 void expect_well_formed(const NeighborList& list, std::size_t query_count,
                         std::size_t source_count) {
-  ASSERT_EQ(list.offsets.size(), query_count + 1);
-  EXPECT_EQ(list.offsets.front(), 0u);
-  EXPECT_EQ(list.offsets.back(), list.indices.size());
+  ASSERT_EQ(list.query_count(), query_count);
+  EXPECT_FALSE(list.wide());  // 32-bit row starts: the pairs fit
+  EXPECT_EQ(list.row_begin(0), 0u);
+  EXPECT_EQ(list.row_begin(query_count), list.indices.size());
   for (std::size_t i = 0; i < query_count; ++i) {
-    ASSERT_LE(list.offsets[i], list.offsets[i + 1]);
+    ASSERT_LE(list.row_begin(i), list.row_begin(i + 1));
     const auto row = list.neighbors(i);
     for (std::size_t k = 0; k < row.size(); ++k) {
       EXPECT_LT(row[k], source_count);
@@ -226,7 +227,7 @@ TYPED_TEST(NeighborTest, EmptySourceGivesEmptyRows) {
   const auto query = random_points<dim>(10, 0.0, 1.0, 3);
   const NeighborList list =
       expect_cell_list_matches_brute_force<dim>(query.view(), source.view(), 0.5);
-  EXPECT_EQ(list.offsets, std::vector<std::uint64_t>(11, 0));
+  EXPECT_EQ(list.offsets, std::vector<std::uint32_t>(11, 0));
   EXPECT_TRUE(list.indices.empty());
 }
 
@@ -238,7 +239,7 @@ TYPED_TEST(NeighborTest, EmptyQueryGivesNoRows) {
   const NeighborList list =
       expect_cell_list_matches_brute_force<dim>(query.view(), source.view(), 0.5);
   EXPECT_EQ(list.query_count(), 0u);
-  EXPECT_EQ(list.offsets, std::vector<std::uint64_t>{0});
+  EXPECT_EQ(list.offsets, std::vector<std::uint32_t>{0});
   EXPECT_TRUE(list.indices.empty());
   // Both sets empty.
   const NeighborList none =
@@ -264,7 +265,7 @@ TYPED_TEST(NeighborTest, SingleParticle) {
   query.add(beyond);
   const NeighborList list =
       expect_cell_list_matches_brute_force<dim>(query.view(), source.view(), 0.5);
-  EXPECT_EQ(list.offsets, (std::vector<std::uint64_t>{0, 1, 2, 2}));
+  EXPECT_EQ(list.offsets, (std::vector<std::uint32_t>{0, 1, 2, 2}));
   EXPECT_EQ(list.indices, (std::vector<std::uint32_t>{0, 0}));
 }
 
@@ -530,8 +531,44 @@ TYPED_TEST(NeighborTest, TransposeEqualsTheSearchTheOtherWay) {
     EXPECT_TRUE(transpose(transposed, query.size()) == forward) << threads << " threads";
   }
   set_thread_count(before);
-  EXPECT_TRUE(transpose(NeighborList{}, 3) == (NeighborList{{0, 0, 0, 0}, {}}));
+  EXPECT_TRUE(transpose(NeighborList{}, 3) == (NeighborList{{0, 0, 0, 0}, {}, {}}));
   EXPECT_THROW(transpose(forward, 10), std::invalid_argument);
+}
+
+/// The same rows whatever the width of the row starts.
+void expect_same_rows(const NeighborList& a, const NeighborList& b) {
+  ASSERT_EQ(a.query_count(), b.query_count());
+  ASSERT_EQ(a.indices, b.indices);
+  for (std::size_t i = 0; i <= a.query_count(); ++i) ASSERT_EQ(a.row_begin(i), b.row_begin(i)) << "row " << i;
+}
+
+// Row starts are 32-bit while the pair count fits, 64-bit beyond: with the limit
+// lowered below the pair count (no test can hold 2^32 pairs) the list is wide, reads the
+// same rows, and transposes to the same rows, from and to either width.
+TYPED_TEST(NeighborTest, WideRowStartsHoldTheSameRows) {
+  constexpr int dim = TypeParam::value;
+  const auto source = random_points<dim>(300, 0.0, 1.0, 61);
+  const auto query = random_points<dim>(200, -0.1, 1.1, 62);
+  const double radius = dim == 1 ? 0.02 : dim == 2 ? 0.12 : 0.25;
+  const NeighborList narrow = brute_force_neighbors<dim>(query.view(), source.view(), radius);
+  ASSERT_FALSE(narrow.wide());
+  ASSERT_GT(narrow.pair_count(), query.size());
+  std::vector<std::uint32_t> counts(query.size() + 1, 0);
+  for (std::size_t i = 0; i < query.size(); ++i) counts[i + 1] = static_cast<std::uint32_t>(narrow.neighbors(i).size());
+  NeighborList wide = NeighborList::from_row_counts(counts, narrow.pair_count() - 1);
+  ASSERT_TRUE(wide.wide());
+  EXPECT_TRUE(wide.offsets.empty());
+  ASSERT_EQ(wide.pair_count(), narrow.pair_count());
+  wide.indices = narrow.indices;
+  expect_same_rows(wide, narrow);
+  EXPECT_FALSE(NeighborList::from_row_counts(counts, narrow.pair_count()).wide());  // at the limit: 32-bit
+  const NeighborList backward = transpose(narrow, source.size());
+  const NeighborList wide_backward = transpose(narrow, source.size(), 0);
+  EXPECT_TRUE(wide_backward.wide());
+  expect_same_rows(wide_backward, backward);
+  expect_same_rows(transpose(wide, source.size()), backward);
+  expect_same_rows(transpose(wide_backward, query.size(), 0), narrow);
+  EXPECT_EQ(NeighborList::from_row_counts({}).query_count(), 0u);
 }
 
 // Morton order: a permutation sorted by the interleaved bits of the cell coordinates;

@@ -173,6 +173,48 @@ TYPED_TEST(ParticleSetTest, PermuteWithWrongSizeThrows) {
   EXPECT_NO_THROW(empty.permute({}));
 }
 
+// Released optional fields (release_optional_fields) stay released through permute and
+// resize, the other fields move as before, and check_field_sizes accepts a released
+// optional field but not a required one of the wrong size.
+TYPED_TEST(ParticleSetTest, ReleasedOptionalFieldsStayReleased) {
+  constexpr int dim = TypeParam::value;
+  const std::size_t n = 23;
+  ParticleSet<dim> set;
+  set.resize(n);
+  fill_with_tags(set);
+  const ParticleSet<dim> before = set;
+  set.release_optional_fields(true);
+  EXPECT_TRUE(set.carries(set.initial_position));
+  EXPECT_FALSE(set.carries(set.displacement));
+  EXPECT_FALSE(set.carries(set.id));
+  EXPECT_TRUE(set.id.empty() && set.boundary.empty() && set.group.empty());
+  EXPECT_NO_THROW(set.check_field_sizes("test"));
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::shuffle(order.begin(), order.end(), std::mt19937_64(5));
+  set.permute(order);
+  for (std::size_t p = 0; p < n; ++p) {
+    EXPECT_EQ(set.mass[p], before.mass[order[p]]);
+    for (int d = 0; d < dim; ++d) {
+      EXPECT_EQ(set.position[d][p], before.position[d][order[p]]);
+      EXPECT_EQ(set.initial_position[d][p], before.initial_position[d][order[p]]);
+      EXPECT_TRUE(set.displacement[d].empty());
+    }
+  }
+  set.resize(n + 4);
+  EXPECT_EQ(set.size(), n + 4);
+  EXPECT_TRUE(set.id.empty() && set.boundary.empty() && set.displacement[0].empty());
+  EXPECT_EQ(set.initial_position[0].size(), n + 4);
+  set.release_optional_fields(false);
+  EXPECT_TRUE(set.initial_position[0].empty());
+  EXPECT_NO_THROW(set.check_field_sizes("test"));
+  set.mass.pop_back();  // a required field short of one value
+  EXPECT_THROW(set.check_field_sizes("test"), std::invalid_argument);
+  ParticleSet<dim> partial = before;
+  partial.id.pop_back();  // an optional field neither whole nor released
+  EXPECT_THROW(partial.check_field_sizes("test"), std::invalid_argument);
+}
+
 // view() points at the vectors' storage and reports the size.
 TYPED_TEST(ParticleSetTest, ViewPointsAtTheFields) {
   constexpr int dim = TypeParam::value;

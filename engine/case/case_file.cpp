@@ -557,7 +557,7 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     c.transpose_lists = v.boolean("transpose_lists").value_or(false);
     c.neighbor_skin = v.real("neighbor_skin", false, "0.1", [](double s) { return s >= 0.0 && s <= 1.0; },
                              "must lie in [0, 1] (a fraction of the support radius 2h)")
-                          .value_or(0.0);
+                          .value_or(0.05);  // SolverSettings::neighbor_skin
     v.finish();
   }
   {  // [time]

@@ -92,7 +92,7 @@ struct CaseFile {
   // [solver]
   NeighborSearch neighbor_search = NeighborSearch::automatic;
   bool transpose_lists = false;
-  double neighbor_skin = 0.0;  ///< SolverSettings::neighbor_skin
+  double neighbor_skin = 0.05;  ///< SolverSettings::neighbor_skin
 
   // [time]
   double end_time = 0.0;

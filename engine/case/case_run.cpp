@@ -253,6 +253,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.neighbor_search = c.neighbor_search;
   b.settings.transpose_lists = c.transpose_lists;
   b.settings.neighbor_skin = c.neighbor_skin;
+  b.settings.keep_virtual_fields = c.output_virtual;  // its frames write them (snapshot)
   b.material.emplace(c.young_modulus, c.poisson_ratio, c.density,
                      Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
   b.wave_speed = b.material->p_wave_speed(c.density);
@@ -344,13 +345,19 @@ CaseOverview inspect(const CaseFile& c) {
   } catch (const std::invalid_argument& e) {
     throw CaseError({c.path + ": " + e.what()});
   }
-  // Fields: 4 Dim vectors + stresses + mass, density, volume (doubles), 3 int32 tags;
-  // lists: a 4-byte index per pair, an 8-byte offset per row.
-  const double per_particle = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  // Fields: 4 Dim vectors + stresses + mass, density, volume (doubles), 3 int32 tags
+  // (the virtual set: 2 Dim vectors, no tags, unless its frames are written:
+  // SolverSettings::keep_virtual_fields); lists: a 4-byte index per pair, a 4-byte row
+  // start per row (NeighborList).
+  const double real_per_particle = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double virtual_per_particle =
+      c.output_virtual ? real_per_particle : 8.0 * (2 * Dim + stress_component_count<Dim> + 3);
   const double particles = static_cast<double>(o.real_particles + o.virtual_particles);
   const double pairs = static_cast<double>(solver->virtual_from_real().pair_count() +
                                            solver->real_from_virtual().pair_count());
-  o.memory_bytes = particles * per_particle + 4.0 * pairs + 8.0 * particles;
+  o.memory_bytes = static_cast<double>(o.real_particles) * real_per_particle +
+                   static_cast<double>(o.virtual_particles) * virtual_per_particle + 4.0 * pairs +
+                   4.0 * particles;
   return o;
 }
 
@@ -882,10 +889,14 @@ ResourceEstimate estimate(const CaseFile& c) {
   e.frame_bytes = frame_bytes(e.real_particles, true) +
                   (c.output_virtual ? frame_bytes(e.virtual_particles, false) : 0.0);
   // A checkpoint (checkpoint.hpp): every field of both sets, 8 bytes per double field
-  // and 12 per particle for the three 4-byte tags, plus the .pvd lists and error records.
+  // and 12 per particle for the three 4-byte tags (the virtual set without the fields the
+  // solver releases unless its frames are written: SolverSettings::keep_virtual_fields),
+  // plus the .pvd lists and error records.
   const double set_bytes = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double virtual_set_bytes = c.output_virtual ? set_bytes : 8.0 * (2 * Dim + stress_component_count<Dim> + 3);
   const double bookkeeping = 256.0 * e.frames;  // per frame: .pvd entries, error records
-  e.checkpoint_bytes = set_bytes * (e.real_particles + e.virtual_particles) + bookkeeping + 4096.0;
+  e.checkpoint_bytes =
+      set_bytes * e.real_particles + virtual_set_bytes * e.virtual_particles + bookkeeping + 4096.0;
   // Probes: a row of 1 + 3 Dim + 7 numbers of 18 characters per probe_every steps
   // (and per frame); the .pvd lists: about 80 bytes per frame, twice (the file and its
   // temporary copy). Checkpoints: two kept and one being written.
@@ -899,7 +910,7 @@ ResourceEstimate estimate(const CaseFile& c) {
   // checkpoint in the making (a copy of both sets, its byte buffer and the string
   // handed to the writer); the frame bookkeeping is held once more by the run.
   const double skin = c.kinematics == Kinematics::updated_lagrangian ? c.neighbor_skin : 0.0;
-  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, c.transpose_lists, skin) *
+  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, c.transpose_lists, skin, c.output_virtual) *
                        std::max(e.real_particles, e.virtual_particles) +
                    e.frame_bytes + 3.0 * (e.checkpoint_bytes - bookkeeping) + 4.0 * bookkeeping;
   return e;

@@ -73,9 +73,10 @@ class Reader {
     return value;
   }
   template <class T>
+  /// `expected` values, or none (a released optional field of a ParticleSet).
   void get_vector(std::vector<T>& v, std::uint64_t expected) {
     const auto n = get<std::uint64_t>();
-    if (n != expected)
+    if (n != expected && n != 0)
       throw std::runtime_error("checkpoint '" + path_ + "' is damaged: a field holds " + std::to_string(n) +
                                " values, expected " + std::to_string(expected));
     v.resize(n);
@@ -166,6 +167,11 @@ Checkpoint<Dim> read_checkpoint(const std::string& path) {
   for (ParticleSet<Dim>* set : {&c.real, &c.virtual_particles}) {
     const auto n = r.get<std::uint64_t>();
     set->for_each_field([&r, n](auto& field) { r.get_vector(field, n); });
+    try {  // released optional fields (the solver's virtual set) come back released
+      set->check_field_sizes("checkpoint '" + path + "'");
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(std::string(e.what()) + " (damaged)");
+    }
   }
   c.real_series = detail::get_series(r);
   c.virtual_series = detail::get_series(r);
