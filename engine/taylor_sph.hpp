@@ -1673,7 +1673,7 @@ class TaylorSph {
     parallel_for(virtual_.size(), [&](std::size_t v) {
       const auto row = virtual_follow_.neighbors(v);
       if (row.empty()) return;
-      const std::uint64_t first = virtual_follow_.offsets[v];
+      const std::uint64_t first = virtual_follow_.row_begin(v);
       Vec x = Vec::Zero();
       for (std::size_t k = 0; k < row.size(); ++k) x += virtual_follow_weight_[first + k] * real_.position_of(row[k]);
       for (int d = 0; d < Dim; ++d) {
@@ -1706,7 +1706,7 @@ class TaylorSph {
           const StencilStatus status = compute_stencil<Dim>(kernel, settings_.smoothing_length, x0, real_points,
                                                             real_.volume.data(), row, InterpolationKind::linear, w);
           if (status.no_neighbors) return;
-          const std::uint64_t first = virtual_follow_.offsets[v];
+          const std::uint64_t first = virtual_follow_.row_begin(v);
           for (std::size_t k = 0; k < row.size(); ++k) {
             virtual_follow_weight_[first + k] = w.value[k];
             gain[v] += std::abs(w.value[k]);
@@ -1940,17 +1940,18 @@ class TaylorSph {
       boundary_slot_[boundary_particles_[s]] = static_cast<std::int32_t>(s);
     // By index, rebuilt at their next use.
     if (virtual_follow_.query_count() == virtual_.size()) {  // rows to the new virtual order, entries to the new real
-      NeighborList follow;
-      std::vector<double> weight;
-      follow.offsets.assign(virtual_.size() + 1, 0);
+      std::vector<std::uint32_t> counts(virtual_.size() + 1, 0);
+      for (std::size_t k = 0; k < virtual_order.size(); ++k)
+        counts[k + 1] = static_cast<std::uint32_t>(virtual_follow_.neighbors(virtual_order[k]).size());
+      NeighborList follow = NeighborList::from_row_counts(std::move(counts));
+      std::vector<double> weight(follow.indices.size());
       for (std::size_t k = 0; k < virtual_order.size(); ++k) {
         const auto row = virtual_follow_.neighbors(virtual_order[k]);
-        const std::uint64_t first = virtual_follow_.offsets[virtual_order[k]];
+        const std::uint64_t first = virtual_follow_.row_begin(virtual_order[k]), to = follow.row_begin(k);
         for (std::size_t e = 0; e < row.size(); ++e) {
-          follow.indices.push_back(new_index[row[e]]);
-          weight.push_back(virtual_follow_weight_[first + e]);
+          follow.indices[to + e] = new_index[row[e]];
+          weight[to + e] = virtual_follow_weight_[first + e];
         }
-        follow.offsets[k + 1] = follow.indices.size();
       }
       virtual_follow_ = std::move(follow);
       virtual_follow_weight_ = std::move(weight);
