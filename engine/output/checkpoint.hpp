@@ -95,6 +95,7 @@ class Reader {
   void take(void* out, std::size_t bytes) {
     if (position_ + bytes > data_.size())
       throw std::runtime_error("checkpoint '" + path_ + "' is truncated or damaged");
+    if (bytes == 0) return;  // an empty (released) field: its data() may be null, which memcpy must not get
     std::memcpy(out, data_.data() + position_, bytes);
     position_ += bytes;
   }
