@@ -1599,13 +1599,7 @@ class TaylorSph {
     mean_volume /= static_cast<double>(virtual_.size());
     const double spacing = std::pow(mean_volume, 1.0 / Dim);
     hourglass_radius_ = std::max(support_radius(), 1.75 * spacing);
-    PointsView<Dim> real_points, virtual_points;
-    real_points.count = real_.size();
-    virtual_points.count = virtual_.size();
-    for (int d = 0; d < Dim; ++d) {
-      real_points.coordinate[d] = real_.initial_position[d].data();
-      virtual_points.coordinate[d] = virtual_.initial_position[d].data();
-    }
+    const PointsView<Dim> real_points = initial_points_of<Dim>(real_), virtual_points = initial_points_of<Dim>(virtual_);
     hourglass_from_virtual_ = CellList<Dim>(virtual_points, hourglass_radius_).query(real_points);
     hourglass_to_real_ = CellList<Dim>(real_points, hourglass_radius_).query(virtual_points);
     hourglass_list_build_ = counters_.neighbor_builds;
@@ -1696,13 +1690,7 @@ class TaylorSph {
   /// built), and the largest sum_J |A_vJ| (the skin's bound on a virtual move).
   template <class Kernel>
   void build_virtual_follow(const Kernel& kernel) {
-    PointsView<Dim> real_points, virtual_points;
-    real_points.count = real_.size();
-    virtual_points.count = virtual_.size();
-    for (int d = 0; d < Dim; ++d) {
-      real_points.coordinate[d] = real_.initial_position[d].data();
-      virtual_points.coordinate[d] = virtual_.initial_position[d].data();
-    }
+    const PointsView<Dim> real_points = initial_points_of<Dim>(real_), virtual_points = initial_points_of<Dim>(virtual_);
     virtual_follow_ = CellList<Dim>(real_points, support_radius()).query(virtual_points);
     virtual_follow_weight_.assign(virtual_follow_.pair_count(), 0.0);
     std::vector<double> gain(virtual_.size(), 0.0);

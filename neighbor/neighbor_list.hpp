@@ -89,6 +89,15 @@ PointsView<Dim> points_of(const HasPositions& set) {
   return view;
 }
 
+/// The same view of a set's initial positions X (the reference configuration).
+template <int Dim, class HasPositions>
+PointsView<Dim> initial_points_of(const HasPositions& set) {
+  PointsView<Dim> view;
+  view.count = set.initial_position[0].size();
+  for (int d = 0; d < Dim; ++d) view.coordinate[d] = set.initial_position[d].data();
+  return view;
+}
+
 /// Squared distance, summed over d = 0..Dim-1 in that order. Every search uses this
 /// one function so that points exactly on the radius are decided identically.
 template <int Dim>
