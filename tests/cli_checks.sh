@@ -1,106 +1,123 @@
 #!/usr/bin/env bash
-# Command-line contract of tsph-bar: bad input gives exit status 2 and one message
-# naming the parameter, the value and the allowed range; good input gives 0; a forced
-# unstable run gives 3 and the diagnosis; an output file that cannot be written gives 1,
-# names the file and loses nothing written before.
+# Command-line contract of the tsph subcommands beside run/check (tsph_cli_checks.sh):
+# `tsph table1`, and `tsph run` on the shipped bar and cantilever cases (what tsph-bar
+# and tsph-cantilever checked), `tsph spectrum`, `tsph converge`. Bad input gives exit
+# status 2 and one message naming the key, the value and the allowed range; good input
+# gives 0; a forced unstable run gives 3 and the diagnosis; an output file that cannot
+# be written gives 1, names the file and loses nothing written before.
+#   cli_checks.sh TSPH SOURCE_DIR
 set -u
-bar="$1"
+tsph="$1"
+cases="$2/tools/cases"
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
 failures=0
+checks=0
+
+fail() {
+  echo "FAIL: $*"
+  failures=$((failures + 1))
+}
 
 expect() {  # expect STATUS REGEX ARGS...
   local status="$1" pattern="$2"
   shift 2
   local text
-  local args=(--quiet "$@")
-  [[ " $* " == *" --out "* ]] || args=(--out "$out/run" "${args[@]}")
-  text="$("$bar" "${args[@]}" 2>&1)"
+  checks=$((checks + 1))
+  rm -rf "$out/run"
+  text="$("$tsph" "$@" 2>&1)"
   local got=$?
   if [ "$got" -ne "$status" ] || ! grep -qE -- "$pattern" <<<"$text"; then
-    echo "FAIL: tsph-bar $* -> status $got (want $status), output: $text (want /$pattern/)"
-    failures=$((failures + 1))
+    fail "tsph $* -> status $got (want $status), output: $text (want /$pattern/)"
   fi
 }
 
-expect 2 "alpha = -1 is invalid: must lie in \(0.5, 4\]" --alpha -1
-expect 2 "cfl = 1.2 is invalid: must lie in \(0, 1\].*force" --cfl 1.2
-expect 3 "stopped: solver: the solution diverged at step [0-9]+ \(t = .* s\): real particle [0-9]+ at \(.*\) .*likely cause: the time step: CFL = dt c_p / dx = 1.5" --cfl 1.5 --force
-expect 2 "kernel = 'gauss' is invalid: must be one of: cubic_spline, quintic_spline, wendland_c2" --kernel gauss
-expect 2 "young_modulus = 0 is invalid: must be a positive" --E 0
-expect 2 "density = -5 is invalid" --rho -5
-expect 2 "dx = -0.01 is invalid|length = -1 is invalid" --length -1
-expect 2 "output_times = 0.009 is invalid: each must lie in \(0, end_time = 0.005\]" --times 0.001,0.009 --end-time 0.005
-expect 2 "particles = 2 is invalid" --particles 2
-expect 2 "The following argument was not expected|not expected" --no-such-option
-expect 2 "out = .* cannot be created" --out /proc/forbidden/dir
-expect 0 "" --times 0.00375
-[ -f "$out/run/summary.json" ] || { echo "FAIL: no summary.json"; failures=$((failures + 1)); }
-grep -q '"velocity_l2_error_percent"' "$out/run/summary.json" 2>/dev/null ||
-  { echo "FAIL: summary.json lacks the errors"; failures=$((failures + 1)); }
+bar=(run "$cases/bar.toml" --quiet --out "$out/run")
+expect 2 "method.alpha = -1 is invalid: must lie in \(0.5, 4\]" "${bar[@]}" --set method.alpha=-1
+expect 2 "time.cfl = 1.2 is invalid: must lie in \(0, 1\].*time.force = true" "${bar[@]}" --set time.cfl=1.2
+expect 3 "diverged: solver: the solution diverged at step [0-9]+ \(t = .* s\): real particle [0-9]+ at \(.*\) .*likely cause: the time step: CFL = dt c_p / dx = 1.5" \
+  "${bar[@]}" --set time.cfl=1.5 --set time.force=true
+expect 2 "method.kernel = 'gauss' is invalid: must be one of: cubic_spline, wendland_c2, quintic_spline" "${bar[@]}" --set method.kernel=gauss
+expect 2 "material.E = 0 is invalid: must be a positive" "${bar[@]}" --set material.E=0
+expect 2 "material.rho = -5 is invalid" "${bar[@]}" --set material.rho=-5
+expect 2 "output.times = .* is invalid: each must lie in \(0, time.end = 0.005\]" "${bar[@]}" --set time.end=0.005 \
+  --set "output.times=[0.001, 0.009]"
+expect 2 "The following argument was not expected|not expected" "${bar[@]}" --no-such-option
+expect 2 "out = .* cannot be created" run "$cases/bar.toml" --quiet --out /proc/forbidden/dir
 
-checks=12
+# The seed's Table 1: the three alpha, our errors beside the paper's, the files that
+# tools/plot_table1.py and tools/plot_bar.py read.
+expect 0 "^ +0.6 +0.012 +2 +[0-9.e+-]+ +[0-9.e+-]+ +1e-3" table1 --out "$out/table1"
+for f in table1.csv summary.json alpha0.6/summary.json alpha1.6/particles.pvd profile_alpha1.2_t7.500000ms.csv; do
+  [ -s "$out/table1/$f" ] || fail "tsph table1 did not write $f"
+done
+checks=$((checks + 1))
+grep -q '"schema": "tsph.summary/1"' "$out/table1/summary.json" && grep -q '"command": "table1"' "$out/table1/summary.json" &&
+  grep -q '"schema": "tsph.summary/1"' "$out/table1/alpha1.2/summary.json" ||
+  fail "table1 summaries lack the schema: $(cat "$out/table1/summary.json")"
+[ "$(head -1 "$out/table1/table1.csv")" = "alpha,support_radius,error_percent_3p75ms,error_percent_7p5ms,paper_percent" ] ||
+  fail "table1.csv header: $(head -1 "$out/table1/table1.csv")"
+expect 2 "method.kernel = 'gauss' is invalid" table1 --out "$out/table1" --set method.kernel=gauss
 
 # Output failure: the file-size limit (ulimit -f, SIGXFSZ ignored) makes writes fail
 # with EFBIG, as a full disk does with ENOSPC. The files of an earlier run must stay.
 # Not under ThreadSanitizer, whose runtime faults (SIGBUS) under a file-size limit.
 if [ -z "${TSAN_OPTIONS:-}" ]; then
-checks=$((checks + 1))
-mkdir -p "$out/full"
-echo "earlier run" >"$out/full/summary.json"
-echo "earlier profile" >"$out/full/profile_t3.750000ms.csv"
-text="$( (trap '' XFSZ; ulimit -f 4; exec "$bar" --quiet --out "$out/full" --times 0.00375) 2>&1)"
-got=$?
-if [ "$got" -ne 1 ] || ! grep -qE "stopped: cannot write '.*profile_t3.750000ms.csv' \(write: File too large\)" <<<"$text" ||
-   [ "$(cat "$out/full/summary.json")" != "earlier run" ] ||
-   [ "$(cat "$out/full/profile_t3.750000ms.csv")" != "earlier profile" ] ||
-   ls "$out/full" | grep -q partial; then
-  echo "FAIL: output failure -> status $got (want 1), output: $text; directory: $(ls "$out/full")"
-  failures=$((failures + 1))
-fi
-fi
-# tsph-cantilever (second argument): bad input only, exit status 2.
-cantilever="${2:-}"
-if [ -n "$cantilever" ]; then
-  expect_cantilever() {  # expect_cantilever REGEX ARGS...
-    local pattern="$1"
-    shift
-    local text
-    text="$("$cantilever" --out "$out/cantilever" --quiet "$@" 2>&1)"
-    local got=$?
-    checks=$((checks + 1))
-    if [ "$got" -ne 2 ] || ! grep -qE -- "$pattern" <<<"$text"; then
-      echo "FAIL: tsph-cantilever $* -> status $got (want 2), output: $text (want /$pattern/)"
-      failures=$((failures + 1))
-    fi
-  }
-  expect_cantilever "poisson_ratio = 0.5 is invalid: must lie in \(-1, 0.5\)" --nu 0.5
-  expect_cantilever "nodes_y = 6 is invalid: must be odd" --nx 51
-  expect_cantilever "young_modulus = -1 is invalid" --E -1
-  expect_cantilever "plane: .*not in" --plane membrane
-  expect_cantilever "cfl = 1.5 is invalid: must lie in \(0, 1\].*force" --cfl 1.5
-  expect_cantilever "free_edge_uniaxial = true is invalid: applies to the edges of the 3D beam only" --free-edge-uniaxial
-  expect_cantilever "alpha = 2.5 is invalid: must lie in \(0.5, 1.9\] for the cubic_spline kernel" --alpha 2.5
-  expect_cantilever "alpha = 2.5 is invalid: must lie in \(0.5, 2.4\] for the quintic_spline kernel" --alpha 2.5 \
-    --kernel quintic_spline --nx 21
-  # A forced unstable CFL: exit status 3 and the diagnosis, within a few steps; the
-  # last good state (here the initial one) is written, summary.json says so.
   checks=$((checks + 1))
-  rm -rf "$out/cantilever"
-  text="$("$cantilever" --out "$out/cantilever" --quiet --nx 21 --cfl 1.5 --force 2>&1)"
+  mkdir -p "$out/full"
+  echo "earlier run" >"$out/full/table1.csv"
+  echo "earlier profile" >"$out/full/profile_alpha0.6_t3.750000ms.csv"
+  text="$( (trap '' XFSZ; ulimit -f 4; exec "$tsph" table1 --out "$out/full") 2>&1)"
   got=$?
-  if [ "$got" -ne 3 ] || ! grep -qE "diverged at step [0-9]+ .*real particle [0-9]+ at \(.*, .*\).*likely cause: the time step: CFL" <<<"$text"; then
-    echo "FAIL: tsph-cantilever --cfl 1.5 --force -> status $got (want 3), output: $text"
-    failures=$((failures + 1))
-  fi
-  checks=$((checks + 1))
-  if ! grep -q '"status": "diverged", "message": ".*diverged at step' "$out/cantilever/summary.json" 2>/dev/null ||
-     ! grep -q '"time": 0.000000' "$out/cantilever/summary.json" ||
-     [ "$(wc -l <"$out/cantilever/particles.csv")" -ne $((21 * 3 + 1)) ] || [ ! -s "$out/cantilever/axis.csv" ]; then
-    echo "FAIL: a diverged tsph-cantilever run should keep its last good state: $(ls "$out/cantilever"); $(cat "$out/cantilever/summary.json" 2>&1)"
-    failures=$((failures + 1))
+  if [ "$got" -ne 1 ] || ! grep -qE "cannot write '.*' \((write|close): File too large\)" <<<"$text" ||
+     [ "$(cat "$out/full/table1.csv")" != "earlier run" ] ||
+     [ "$(cat "$out/full/profile_alpha0.6_t3.750000ms.csv")" != "earlier profile" ]; then
+    fail "output failure -> status $got (want 1), output: $text; directory: $(ls "$out/full")"
   fi
 fi
+
+# The cantilever case: bad input, exit status 2.
+beam=(run "$cases/cantilever_2d.toml" --quiet --out "$out/run")
+expect 2 "material.nu = 0.5 is invalid: must lie in \(-1, 0.5\)" "${beam[@]}" --set material.nu=0.5
+expect 2 "needs a real particle on the beam axis" "${beam[@]}" --set geometry.spacing=0.02
+expect 2 "material.E = -1 is invalid" "${beam[@]}" --set material.E=-1
+expect 2 "material.plane = 'membrane' is invalid: must be one of: stress, strain" "${beam[@]}" --set material.plane=membrane
+expect 2 "time.cfl = 1.5 is invalid: must lie in \(0, 1\]" "${beam[@]}" --set time.cfl=1.5
+expect 2 "method.free_edge_uniaxial = true is invalid: applies to dimension = 3 only" "${beam[@]}" \
+  --set method.free_edge_uniaxial=true
+expect 2 "method.velocity_wall = 'wall-gradient' is invalid: must be one of: characteristics, wall_gradient" "${beam[@]}" \
+  --set method.velocity_wall=wall-gradient
+# A forced unstable CFL: exit status 3 and the diagnosis within a few steps; the last
+# good state (the initial frame) is written and summary.json says so.
+expect 3 "diverged at step [0-9]+ .*real particle [0-9]+ at \(.*, .*\).*likely cause: the time step: CFL" "${beam[@]}" \
+  --set geometry.spacing=0.05 --set time.cfl=1.5 --set time.force=true
+checks=$((checks + 1))
+grep -q '"status": "diverged"' "$out/run/summary.json" 2>/dev/null && grep -q '"message": ".*diverged at step' "$out/run/summary.json" &&
+  [ -s "$out/run/particles_000000.vtu" ] ||
+  fail "a diverged cantilever run should keep its last good state: $(ls "$out/run"); $(cat "$out/run/summary.json" 2>&1)"
+
+# tsph spectrum on the 21 x 3 beam (441 unknowns), and refused on the 1D bar.
+expect 0 "spectral radius [0-9.]+" spectrum "$cases/cantilever_2d.toml" --set geometry.spacing=0.05 --out "$out/spectrum"
+checks=$((checks + 1))
+[ "$(wc -l <"$out/spectrum/eigenvalues.csv")" -eq 442 ] && [ -s "$out/spectrum/fixed_point.csv" ] ||
+  fail "tsph spectrum files: $(ls "$out/spectrum")"
+expect 2 "dimension 2 or 3" spectrum "$cases/bar.toml" --out "$out/spectrum"
+
+# tsph converge: the bar at alpha 1.2 and two spacings; the observed rates printed.
+expect 0 "velocity_x_l2 %.*rate" converge "$cases/bar.toml" --set method.alpha=1.2 --sweep geometry.spacing=0.02,0.01 \
+  --out "$out/converge"
+checks=$((checks + 1))
+grep -q '"command": "converge"' "$out/converge/summary.json" && [ -s "$out/converge/spacing_0.01/summary.json" ] &&
+  [ "$(wc -l <"$out/converge/converge.csv")" -eq 3 ] || fail "tsph converge files: $(ls "$out/converge")"
+expect 2 "write --sweep KEY=V1,V2" converge "$cases/bar.toml" --sweep method.alpha --out "$out/converge"
+expect 2 "method.alpha = 9 is invalid" converge "$cases/bar.toml" --sweep method.alpha=0.6,9 --out "$out/converge"
+
+# --help texts carry no measured figures (they date; docs/ holds them).
+for sub in run check table1 spectrum converge; do
+  checks=$((checks + 1))
+  text="$("$tsph" "$sub" --help 2>&1)"
+  if grep -qE "[0-9] ?%" <<<"$text"; then fail "tsph $sub --help quotes a figure: $(grep -E "[0-9] ?%" <<<"$text")"; fi
+done
 
 echo "$((checks - failures)) passed, $failures failed"
 [ "$failures" -eq 0 ]

@@ -1,12 +1,17 @@
-// The cantilever of seed section 4.2 against Timoshenko & Goodier (seed eq. 5): the
-// static deflection reached by dynamic relaxation, plane stress and plane strain.
-#include "engine/cantilever_case.hpp"
+// The cantilever of seed section 4.2 (tools/cases/cantilever_2d.toml and
+// cantilever_3d.toml, run through the one case pipeline) against Timoshenko & Goodier
+// (seed eq. 5) and the Timoshenko beam: the static deflection reached by dynamic
+// relaxation, plane stress and plane strain (docs/validation.md).
+#include "engine/case/case_build.hpp"
+#include "engine/validation/cantilever.hpp"
+#include "tests/case_helpers.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdint>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -16,58 +21,87 @@
 namespace tsph {
 namespace {
 
-// The exact solution reproduces the reference values (reference README section 2),
-// which are given to 6 decimals (plane strain: 0.045849375 is quoted as 0.045850).
+using testing_cases::CaseRun;
+
+/// The exact beam of the shipped 2D case (1 m x 0.1 m, P = 1000 N, E 8e7, nu 0.3).
+CantileverBeam<2> seed_beam(PlaneMode mode = PlaneMode::plane_stress) {
+  CantileverBeam<2> b;
+  b.load = 1000.0;
+  b.plane_mode = mode;
+  return b;
+}
+
+/// The tip particle on the axis of a built cantilever case.
+template <int Dim>
+std::size_t tip_of(const BuiltCase<Dim>& built) {
+  const auto* beam = dynamic_cast<const CantileverValidation<Dim>*>(built.exact.get());
+  EXPECT_NE(beam, nullptr);
+  return beam ? beam->tip() : 0;
+}
+
+std::string spacing_for(int nodes_x) {
+  char text[64];
+  std::snprintf(text, sizeof text, "geometry.spacing=%.17g", 1.0 / (nodes_x - 1));
+  return text;
+}
+
+/// tsph-cantilever's rest rule (kinetic_tolerance): the kinetic energy below this
+/// fraction of the load's work on the exact tip deflection, P |u_tip|.
+std::string kinetic_rest(double tolerance, PlaneMode mode = PlaneMode::plane_stress) {
+  char text[96];
+  std::snprintf(text, sizeof text, "damping.rest_kinetic_energy=%.17g",
+                tolerance * 1000.0 * std::abs(seed_beam(mode).tip_deflection()));
+  return text;
+}
+
+bool at_rest(const CaseRun& r) { return r.report.status == RunReport::Status::at_rest; }
+
+// The exact solution reproduces the reference values (seed section 4.2), which are
+// given to 6 decimals (plane strain: 0.045849375 is quoted as 0.045850).
 TEST(CantileverExact, TipDeflectionMatchesTheReference) {
-  CantileverSettings<2> s;
-  EXPECT_NEAR(CantileverExact<2>(s).tip_deflection(), 0.050344, 1e-6);
-  s.plane_mode = PlaneMode::plane_strain;
-  EXPECT_NEAR(CantileverExact<2>(s).tip_deflection(), 0.045850, 1e-6);
+  EXPECT_NEAR(seed_beam().tip_deflection(), 0.050344, 1e-6);
+  EXPECT_NEAR(seed_beam(PlaneMode::plane_strain).tip_deflection(), 0.045850, 1e-6);
   // The parabolic tip shear carries the load P: integrate it over the depth.
-  const CantileverExact<2> exact(s);
+  const CantileverBeam<2> exact = seed_beam(PlaneMode::plane_strain);
   double force = 0.0;
   const int n = 2000;
   for (int k = 0; k < n; ++k) {
     const double y = -0.05 + (k + 0.5) * 0.1 / n;
     force += exact.tip_shear(y) * 0.1 / n;
   }
-  EXPECT_NEAR(force, s.load, 1e-3 * s.load);
+  EXPECT_NEAR(force, exact.load, 1e-3 * exact.load);
 }
 
-// The defaults are the wall clamp, the hourglass stiffness 0.05 and the surface
-// extrapolation, in 3D also the free edges' uniaxial stress (refused in 2D).
+// The shipped cases hold the converged options: the wall clamp, the hourglass stiffness
+// 0.05 and the surface extrapolation, in 3D also the free edges' uniaxial stress
+// (refused in 2D); the builder hands them to the solver.
 TEST(Cantilever, DefaultsAreTheConvergedOptions) {
-  const CantileverSettings<2> plane;
-  EXPECT_EQ(plane.clamp, SolverSettings<2>::VelocityWall::wall_gradient);
+  const CaseFile plane = load_case(testing_cases::shipped_case("cantilever_2d.toml"), {"geometry.spacing=0.05"});
+  EXPECT_EQ(plane.velocity_wall, CaseFile::VelocityWall::wall_gradient);
   EXPECT_EQ(plane.hourglass_stiffness, 0.05);
   EXPECT_TRUE(plane.surface_extrapolation);
   EXPECT_FALSE(plane.free_edge_uniaxial);
-  const CantileverSettings<3> solid;
-  EXPECT_EQ(solid.clamp, SolverSettings<3>::VelocityWall::wall_gradient);
+  const CaseFile solid = load_case(testing_cases::shipped_case("cantilever_3d.toml"), {"geometry.spacing=0.05"});
+  EXPECT_EQ(solid.velocity_wall, CaseFile::VelocityWall::wall_gradient);
   EXPECT_EQ(solid.hourglass_stiffness, 0.05);
   EXPECT_TRUE(solid.surface_extrapolation);
   EXPECT_TRUE(solid.free_edge_uniaxial);
-  // make_cantilever hands them to the solver.
-  CantileverSettings<2> small = plane;
-  small.nodes_x = 21;
-  small.nodes_y = 3;
-  const CantileverModel<2> model = make_cantilever(small);
-  EXPECT_EQ(model.solver->settings().velocity_wall, SolverSettings<2>::VelocityWall::wall_gradient);
-  EXPECT_EQ(model.solver->settings().hourglass_stiffness, 0.05);
-  EXPECT_TRUE(model.solver->settings().surface_extrapolation);
-  CantileverSettings<3> small_solid = solid;
-  small_solid.nodes_x = 21;
-  small_solid.nodes_y = small_solid.nodes_z = 3;
-  EXPECT_TRUE(make_cantilever(small_solid).solver->settings().free_edge_uniaxial);
+  BuiltCase<2> model = build_case<2>(plane);
+  EXPECT_EQ(model.settings.velocity_wall, SolverSettings<2>::VelocityWall::wall_gradient);
+  EXPECT_EQ(model.settings.hourglass_stiffness, 0.05);
+  EXPECT_TRUE(model.settings.surface_extrapolation);
+  EXPECT_TRUE(build_case<3>(solid).settings.free_edge_uniaxial);
   // In 2D there are no edges: refused by the case and by the solver.
-  small.free_edge_uniaxial = true;
-  const auto errors = validate(small);
-  ASSERT_EQ(errors.size(), 1u);
-  EXPECT_EQ(errors.front().parameter, "free_edge_uniaxial");
-  SolverSettings<2> with_edges = model.solver->settings();
+  try {
+    load_case(testing_cases::shipped_case("cantilever_2d.toml"), {"method.free_edge_uniaxial=true"});
+    ADD_FAILURE() << "free_edge_uniaxial accepted in 2D";
+  } catch (const CaseError& e) {
+    ASSERT_EQ(e.messages().size(), 1u);
+    EXPECT_NE(e.messages().front().find("method.free_edge_uniaxial"), std::string::npos) << e.what();
+  }
+  SolverSettings<2> with_edges = model.settings;
   with_edges.free_edge_uniaxial = true;
-  EXPECT_THROW(TaylorSph<2>(model.solver->real(), model.solver->virtual_particles(), model.solver->material(),
-                            with_edges, model.conditions),
+  EXPECT_THROW(TaylorSph<2>(model.real, model.virtual_particles, *model.material, with_edges, model.conditions),
                std::invalid_argument);
 }
 
@@ -77,21 +111,20 @@ TEST(Cantilever, DefaultsAreTheConvergedOptions) {
 // or z (faces no longer coordinate planes) has none: the edge is recognised only where
 // its neighbours fill a quarter space between two coordinate planes.
 TEST(Cantilever, FreeEdgesOfAnAxisAlignedBoxOnly) {
-  CantileverSettings<3> s;
-  s.nodes_x = 21;
-  s.nodes_y = s.nodes_z = 3;
-  const CantileverModel<3> model = make_cantilever(s);
-  const std::vector<std::uint32_t> edge = model.solver->free_edge_particles();
+  const CaseFile c = load_case(testing_cases::shipped_case("cantilever_3d.toml"), {"geometry.spacing=0.05"});
+  BuiltCase<3> model = build_case<3>(c);
+  const ParticleSet<3> real = model.real, virtual_particles = model.virtual_particles;
+  TaylorSph<3> solver = make_solver(c, model);
+  const std::vector<std::uint32_t> edge = solver.free_edge_particles();
   ASSERT_EQ(edge.size(), 4u * 19u);
-  const auto& r = model.solver->real();
+  const auto& r = solver.real();
   for (std::uint32_t i : edge) {
     EXPECT_NEAR(std::abs(r.initial_position[1][i]), 0.05, 1e-12);
     EXPECT_NEAR(std::abs(r.initial_position[2][i]), 0.05, 1e-12);
     EXPECT_GT(r.initial_position[0][i], 0.01);
     EXPECT_LT(r.initial_position[0][i], 0.99);
   }
-  TaylorSph<3>& solver = *model.solver;
-  for (int k = 0; k < 50; ++k) solver.step(model.time_step);
+  for (int k = 0; k < 50; ++k) solver.step(model.dt);
   double largest_axial = 0.0;
   for (std::uint32_t i : edge) {
     largest_axial = std::max(largest_axial, std::abs(solver.real().stress[0][i]));  // xx
@@ -102,91 +135,90 @@ TEST(Cantilever, FreeEdgesOfAnAxisAlignedBoxOnly) {
   // Turned by 30 degrees about axis `about` (both particle sets, positions and initial
   // positions): no particle is on an axis-parallel edge with both faces free.
   for (int about : {0, 2}) {
-    const double c = std::cos(M_PI / 6.0), sn = std::sin(M_PI / 6.0);
+    const double cs = std::cos(M_PI / 6.0), sn = std::sin(M_PI / 6.0);
     const int a = (about + 1) % 3, b = (about + 2) % 3;
     auto turn = [&](ParticleSet<3> set) {
       for (std::size_t i = 0; i < set.size(); ++i)
         for (auto* field : {&set.position, &set.initial_position}) {
           const double u = (*field)[a][i], w = (*field)[b][i];
-          (*field)[a][i] = c * u - sn * w;
-          (*field)[b][i] = sn * u + c * w;
+          (*field)[a][i] = cs * u - sn * w;
+          (*field)[b][i] = sn * u + cs * w;
         }
       return set;
     };
-    const TaylorSph<3> turned(turn(model.solver->real()), turn(model.solver->virtual_particles()),
-                              model.solver->material(), model.solver->settings(), model.conditions);
+    const TaylorSph<3> turned(turn(real), turn(virtual_particles), *model.material, model.settings, model.conditions);
     EXPECT_TRUE(turned.free_edge_particles().empty()) << "about axis " << about;
   }
 }
 
-// 101 x 11 real particles (the seed's discretisation), the defaults: tip deflection
+// 101 x 11 real particles (the seed's discretisation, the shipped case): tip deflection
 // within 2 % of the exact value and the L2 error of u_y along the axis below 3 %
 // (issue 3). Measured: plane stress 0.38 % and 0.51 %, plane strain 0.32 % and 0.42 %.
 void expect_seed_accuracy(PlaneMode mode) {
-  CantileverSettings<2> s;  // defaults: 101 x 11, alpha 0.6, CFL 0.9, small strain
-  s.plane_mode = mode;
-  const CantileverResult r = run_cantilever(s);
-  EXPECT_TRUE(r.converged) << "t = " << r.time;
-  EXPECT_LT(r.tip_error_percent, 2.0) << "tip " << r.tip_deflection << " exact " << r.tip_exact;
-  EXPECT_LT(r.axis_l2_error_percent, 3.0);
+  const CaseRun r = testing_cases::run_case_file(
+      testing_cases::shipped_case("cantilever_2d.toml"),
+      {std::string("material.plane=") + (mode == PlaneMode::plane_strain ? "strain" : "stress"), kinetic_rest(1e-5, mode)});
+  EXPECT_TRUE(at_rest(r)) << "t = " << r.report.time;
+  EXPECT_LT(r.final_error("tip_error_percent"), 2.0) << "tip " << r.final_error("tip_displacement_y");
+  EXPECT_LT(r.final_error("axis_displacement_y_l2_percent"), 3.0);
+  EXPECT_DOUBLE_EQ(r.final_error("tip_displacement_y_exact"), seed_beam(mode).tip_deflection());
   // At rest within about a second (ramp 0.31 s; measured 0.95 s and 0.82 s), not at the
   // time limit: a creeping beam would not get there.
-  EXPECT_LT(r.time, 1.5);
-  EXPECT_EQ(r.real_particles, 1111u);
+  EXPECT_LT(r.report.time, 1.5);
+  EXPECT_EQ(r.report.real_particles, 1111u);
 }
 TEST(Cantilever, PlaneStressMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_stress); }
 TEST(Cantilever, PlaneStrainMatchesTimoshenkoGoodier) { expect_seed_accuracy(PlaneMode::plane_strain); }
 
 // The plane-stress beam of nodes_x x ((nodes_x - 1) / 10 + 1) particles with the
-// defaults (surface extrapolation on or off), run to rest (at most 2 s).
-CantileverResult run_beam(int nodes_x, bool surface_extrapolation, double kinetic_tolerance = 1e-5) {
-  CantileverSettings<2> s;
-  s.nodes_x = nodes_x;
-  s.nodes_y = (nodes_x - 1) / 10 + 1;
-  s.surface_extrapolation = surface_extrapolation;
-  s.kinetic_tolerance = kinetic_tolerance;
-  s.end_time = 2.0;
-  return run_cantilever(s);
+// shipped options (surface extrapolation on or off), run to rest (at most 2 s), with
+// the kinetic-energy rest rule at `kinetic_tolerance` of the load's work.
+CaseRun run_beam(int nodes_x, bool surface_extrapolation, double kinetic_tolerance = 1e-5,
+                 std::vector<std::string> more = {}) {
+  std::vector<std::string> overrides = {spacing_for(nodes_x), "time.end=2.0", kinetic_rest(kinetic_tolerance),
+                                        std::string("method.surface_extrapolation=") +
+                                            (surface_extrapolation ? "true" : "false")};
+  overrides.insert(overrides.end(), more.begin(), more.end());
+  return testing_cases::run_case_file(testing_cases::shipped_case("cantilever_2d.toml"), overrides,
+                                      /*record_energy=*/true);
 }
 
 // The rest criterion reads the kinetic energy as well as the tip speed: at 41 x 5 the
 // tip is slow at 0.86 s (its turning point) while the beam keeps 2.0e-6 of the load's
 // work as kinetic energy, which falls only slowly (1.8e-6 at 2 s; the sections turn
-// back slowly: README, The cantilever). The default 1e-5 accepts it (at rest at
-// 0.86 s), 1e-6 does not by 1.2 s.
+// back slowly: docs/validation.md). The tolerance 1e-5 accepts it (at rest before 1 s),
+// 1e-6 does not by 1.2 s.
 TEST(Cantilever, RestNeedsTheKineticEnergyToo) {
-  const CantileverResult loose = run_beam(41, true);
-  ASSERT_TRUE(loose.converged) << "t = " << loose.time;
-  EXPECT_LT(loose.time, 1.0);
-  EXPECT_LT(loose.kinetic_energy, 1e-5 * loose.load_work);
-  EXPECT_GT(loose.kinetic_energy, 1e-6 * loose.load_work);
-  EXPECT_NEAR(loose.load_work, 1000.0 * 0.050344, 1e-3);
-  ASSERT_FALSE(loose.history.empty());
-  EXPECT_DOUBLE_EQ(loose.history.back()[0], loose.time);
-  CantileverSettings<2> s;
-  s.nodes_x = 41;
-  s.nodes_y = 5;
-  s.kinetic_tolerance = 1e-6;
-  s.end_time = 1.2;
-  const CantileverResult strict = run_cantilever(s);
-  EXPECT_FALSE(strict.converged);
-  EXPECT_GT(strict.kinetic_energy, 1e-6 * strict.load_work);
+  const double work = 1000.0 * seed_beam().tip_deflection();
+  EXPECT_NEAR(work, 1000.0 * 0.050344, 1e-3);
+  const CaseRun loose = run_beam(41, true);
+  ASSERT_TRUE(at_rest(loose)) << "t = " << loose.report.time;
+  EXPECT_LT(loose.report.time, 1.0);
+  ASSERT_FALSE(loose.steps.empty());
+  EXPECT_DOUBLE_EQ(loose.steps.back().time, loose.report.time);
+  EXPECT_LT(loose.steps.back().kinetic_energy, 1e-5 * work);
+  EXPECT_GT(loose.steps.back().kinetic_energy, 1e-6 * work);
+  const CaseRun strict = run_beam(41, true, 1e-6, {"time.end=1.2"});
+  EXPECT_EQ(strict.report.status, RunReport::Status::not_at_rest);
+  EXPECT_GT(strict.steps.back().kinetic_energy, 1e-6 * work);
 }
 
-// With the defaults the error falls at second order with dx: measured 2.33 % at 41 x 5
-// and 1.04 % at 61 x 7 (rate 1.98), 0.59 % at 81 x 9, 0.38 % at 101 x 11 (README, The
-// cantilever). The creeping characteristic clamp had no rate.
+// With the shipped options the error falls at second order with dx: measured 2.33 % at
+// 41 x 5 and 1.04 % at 61 x 7 (rate 1.98), 0.59 % at 81 x 9, 0.38 % at 101 x 11
+// (docs/validation.md). The creeping characteristic clamp had no rate.
 TEST(Cantilever, DefaultsConvergeAtSecondOrder) {
-  const CantileverResult coarse = run_beam(41, true), fine = run_beam(61, true);
-  ASSERT_TRUE(coarse.converged) << "t = " << coarse.time;
-  ASSERT_TRUE(fine.converged) << "t = " << fine.time;
-  EXPECT_LT(std::abs(coarse.tip_error_percent), 4.0) << "tip " << coarse.tip_deflection;
-  EXPECT_LT(coarse.axis_l2_error_percent, 4.0);
-  const double rate = std::log(coarse.tip_error_percent / fine.tip_error_percent) / std::log(1.5);
-  EXPECT_NEAR(rate, 2.0, 0.3) << coarse.tip_error_percent << " % -> " << fine.tip_error_percent << " %";
-  const double axis_rate =
-      std::log(coarse.axis_l2_error_percent / fine.axis_l2_error_percent) / std::log(1.5);
-  EXPECT_NEAR(axis_rate, 2.0, 0.4) << coarse.axis_l2_error_percent << " % -> " << fine.axis_l2_error_percent << " %";
+  const CaseRun coarse = run_beam(41, true), fine = run_beam(61, true);
+  ASSERT_TRUE(at_rest(coarse)) << "t = " << coarse.report.time;
+  ASSERT_TRUE(at_rest(fine)) << "t = " << fine.report.time;
+  const double coarse_tip = coarse.final_error("tip_error_percent"), fine_tip = fine.final_error("tip_error_percent");
+  const double coarse_axis = coarse.final_error("axis_displacement_y_l2_percent");
+  const double fine_axis = fine.final_error("axis_displacement_y_l2_percent");
+  EXPECT_LT(std::abs(coarse_tip), 4.0) << "tip " << coarse.final_error("tip_displacement_y");
+  EXPECT_LT(coarse_axis, 4.0);
+  const double rate = std::log(coarse_tip / fine_tip) / std::log(1.5);
+  EXPECT_NEAR(rate, 2.0, 0.3) << coarse_tip << " % -> " << fine_tip << " %";
+  const double axis_rate = std::log(coarse_axis / fine_axis) / std::log(1.5);
+  EXPECT_NEAR(axis_rate, 2.0, 0.4) << coarse_axis << " % -> " << fine_axis << " %";
 }
 
 // SolverSettings::surface_extrapolation: the free-surface particles' tangential strain
@@ -195,40 +227,22 @@ TEST(Cantilever, DefaultsConvergeAtSecondOrder) {
 // share of its bending stiffness: predicted 20.0 % at 41 x 5, measured 19.15 % (with
 // it 2.33 %).
 TEST(Cantilever, WithoutSurfaceExtrapolationTheOuterFibresAreSoft) {
-  const CantileverResult r = run_beam(41, false);
-  ASSERT_TRUE(r.converged) << "t = " << r.time;
-  EXPECT_GT(r.tip_deflection, r.tip_exact);  // too flexible
-  EXPECT_NEAR(r.tip_error_percent, 19.15, 1.0);
+  const CaseRun r = run_beam(41, false);
+  ASSERT_TRUE(at_rest(r)) << "t = " << r.report.time;
+  EXPECT_GT(r.final_error("tip_displacement_y"), r.final_error("tip_displacement_y_exact"));  // too flexible
+  EXPECT_NEAR(r.final_error("tip_error_percent"), 19.15, 1.0);
 }
 
 // Updated Lagrangian (issue 3). The virtual particles are kept at their material
-// points (SolverSettings::VirtualMotion::material_point): 41 x 5 at rest at 0.74 s, +0.72 % at the tip (small strain
-// +2.33 %; the large-displacement effect at this load is about -0.2 %). Moved by their
-// own half-step velocity (the former scheme) they drift from their cells after the
-// beam has come to rest, and the beam is too stiff: -12.9 %.
+// points (SolverSettings::VirtualMotion::material_point): 41 x 5 at rest at 0.74 s,
+// +0.72 % at the tip (small strain +2.33 %; the large-displacement effect at this load
+// is about -0.2 %).
 TEST(Cantilever, UpdatedLagrangianMatchesTheBeam) {
-  CantileverSettings<2> s;
-  s.nodes_x = 41;
-  s.nodes_y = 5;
-  s.kinematics = Kinematics::updated_lagrangian;
-  s.end_time = 2.0;
-  const CantileverResult r = run_cantilever(s);
-  ASSERT_TRUE(r.converged) << "t = " << r.time;
-  EXPECT_LT(r.tip_error_percent, 2.0) << "tip " << r.tip_deflection << " exact " << r.tip_exact;
-  EXPECT_LT(r.axis_l2_error_percent, 3.0);
-  EXPECT_LT(r.time, 1.0);
-
-  // The default (material_point: put back at the material point at every half step, no
-  // stored weights) and the stored initial interpolation weights (real_interpolation)
-  // both keep the virtual particles in their cells: the same beam to 0.05 %.
-  s.virtual_motion = SolverSettings<2>::VirtualMotion::real_interpolation;
-  const CantileverResult stored = run_cantilever(s);
-  ASSERT_TRUE(stored.converged);
-  EXPECT_NEAR(stored.tip_deflection, r.tip_deflection, 5e-4 * r.tip_exact);
-
-  s.virtual_motion = SolverSettings<2>::VirtualMotion::half_step_velocity;
-  const CantileverResult former = run_cantilever(s);
-  EXPECT_LT(former.tip_deflection, 0.9 * r.tip_exact) << "the former scheme was 12.9 % too stiff";
+  const CaseRun r = run_beam(41, true, 1e-5, {"method.kinematics=updated_lagrangian"});
+  ASSERT_TRUE(at_rest(r)) << "t = " << r.report.time;
+  EXPECT_LT(r.final_error("tip_error_percent"), 2.0) << "tip " << r.final_error("tip_displacement_y");
+  EXPECT_LT(r.final_error("axis_displacement_y_l2_percent"), 3.0);
+  EXPECT_LT(r.report.time, 1.0);
 }
 
 // Renumbering the particles carries every per-particle state of the stepper with them
@@ -276,41 +290,42 @@ void expect_same_up_to_permutation(const ParticleSet<2>& a, const ParticleSet<2>
 TEST_P(CantileverPermutation, RenumberedParticlesRunAsTheLattice) {
   const auto [kinematics, conservative] = GetParam();
   const bool moving = kinematics == Kinematics::updated_lagrangian;
-  CantileverSettings<2> s;  // the defaults: wall clamp, stiffness 0.05, extrapolation
-  s.nodes_x = 41;
-  s.nodes_y = 5;
-  s.kinematics = kinematics;
-  const CantileverModel<2> model = make_cantilever(s);
-  const ParticleSet<2> real = model.solver->real();
-  const ParticleSet<2> virtual_particles = model.solver->virtual_particles();
-  SolverSettings<2> settings = model.solver->settings();
+  // The shipped case's options: wall clamp, stiffness 0.05, extrapolation.
+  const CaseFile c = load_case(testing_cases::shipped_case("cantilever_2d.toml"),
+                               {"geometry.spacing=0.025", std::string("method.kinematics=") + to_string(kinematics)});
+  BuiltCase<2> built = build_case<2>(c);
+  const std::size_t tip = tip_of(built);
+  const ParticleSet<2> real = built.real;
+  const ParticleSet<2> virtual_particles = built.virtual_particles;
+  SolverSettings<2> settings = built.settings;
   settings.conservative_momentum = conservative;
+  const double dt = built.dt;
   const int steps = 300;
   auto solver_on = [&](ParticleSet<2> r, ParticleSet<2> v, SpatialOrder order) {
     SolverSettings<2> with_order = settings;
     with_order.spatial_order = order;
-    return TaylorSph<2>(std::move(r), std::move(v), model.solver->material(), with_order, model.conditions);
+    return TaylorSph<2>(std::move(r), std::move(v), *built.material, with_order, built.conditions);
   };
 
   TaylorSph<2> lattice = solver_on(real, virtual_particles, SpatialOrder::none);
-  for (int k = 0; k < steps; ++k) lattice.step(model.time_step);
-  ASSERT_GT(std::abs(lattice.real().displacement[1][model.tip]), 0.0);
+  for (int k = 0; k < steps; ++k) lattice.step(dt);
+  ASSERT_GT(std::abs(lattice.real().displacement[1][tip]), 0.0);
 
   ParticleSet<2> shuffled_real = real, shuffled_virtual = virtual_particles;
   shuffled_real.permute(random_order(real.size(), 3));
   shuffled_virtual.permute(random_order(virtual_particles.size(), 4));
   TaylorSph<2> sorted = solver_on(shuffled_real, shuffled_virtual, SpatialOrder::cells);
   EXPECT_EQ(sorted.counters().reorders, 1);
-  for (int k = 0; k < steps; ++k) sorted.step(model.time_step);
+  for (int k = 0; k < steps; ++k) sorted.step(dt);
   expect_same_up_to_permutation(sorted.real(), lattice.real(), "shuffled, sorted at construction");
 
   TaylorSph<2> renumbered = solver_on(real, virtual_particles, SpatialOrder::cells);
-  for (int k = 0; k < steps / 2; ++k) renumbered.step(model.time_step);
+  for (int k = 0; k < steps / 2; ++k) renumbered.step(dt);
   renumbered.permute_particles(random_order(real.size(), 5), random_order(virtual_particles.size(), 6));
   bool permuted = false;
   for (std::size_t k = 0; k < real.size(); ++k) permuted = permuted || renumbered.real().id[k] != k;
   EXPECT_TRUE(permuted);
-  for (int k = steps / 2; k < steps; ++k) renumbered.step(model.time_step);
+  for (int k = steps / 2; k < steps; ++k) renumbered.step(dt);
   // Updated Lagrangian: the random order has decayed, so the next rebuild sorts it;
   // with the default Verlet skin the order is checked only when the lists run out at x^n
   // (rebuild_neighbors), which does not happen in the remaining steps here (measured:
@@ -333,38 +348,45 @@ INSTANTIATE_TEST_SUITE_P(
              (std::get<1>(p.param) ? "ConservativeMomentum" : "");
     });
 
-// The 3D beam (1 x 0.1 x 0.1 m, P = 100 N) with the defaults against the Timoshenko
-// beam (CantileverExact<3>): 41 x 5 x 5, measured -1.77 % at the tip and 1.35 % on the
-// axis, at rest at 0.83 s with 3.3e-6 of the load's work as kinetic energy (18 s of CPU
-// on the shared machine). Without free_edge_uniaxial the tip was 86 % low ("at rest"
-// by the tip speed alone with 3e-3 of the work as kinetic energy); the 5 % bound also
+// The 3D beam (1 x 0.1 x 0.1 m, P = 100 N; the shipped case) against the Timoshenko
+// beam (CantileverBeam<3>): 41 x 5 x 5, measured -1.77 % at the tip and 1.35 % on the
+// axis, at rest at 0.83 s with 3.3e-6 of the load's work as kinetic energy. Without
+// free_edge_uniaxial the tip was 86 % low ("at rest" by the tip speed alone with 3e-3 of
+// the work as kinetic energy: hence the kinetic-energy rule); the 5 % bound also
 // catches a +-10 % error.
 TEST(Cantilever, ThreeDimensionalBeamMatchesTimoshenko) {
-  CantileverSettings<3> s;
-  s.nodes_x = 41;
-  s.nodes_y = s.nodes_z = 5;
-  s.end_time = 1.5;
-  const CantileverResult r = run_cantilever(s);
-  EXPECT_TRUE(r.converged) << "t = " << r.time << ", kinetic energy " << r.kinetic_energy;
-  EXPECT_LT(r.time, 1.2);
-  EXPECT_NEAR(r.tip_exact, 0.050390, 1e-6);
-  EXPECT_LT(r.tip_error_percent, 5.0) << "tip " << r.tip_deflection << " exact " << r.tip_exact;
-  EXPECT_LT(r.axis_l2_error_percent, 5.0);
-  EXPECT_EQ(r.real_particles, 41u * 5u * 5u);
+  CantileverBeam<3> beam;
+  beam.load = 100.0;
+  char kinetic[96];
+  std::snprintf(kinetic, sizeof kinetic, "damping.rest_kinetic_energy=%.17g", 1e-5 * 100.0 * beam.tip_deflection());
+  const CaseRun r =
+      testing_cases::run_case_file(testing_cases::shipped_case("cantilever_3d.toml"), {"time.end=1.5", kinetic});
+  EXPECT_TRUE(at_rest(r)) << "t = " << r.report.time;
+  EXPECT_LT(r.report.time, 1.2);
+  EXPECT_NEAR(r.final_error("tip_displacement_y_exact"), 0.050390, 1e-6);
+  EXPECT_LT(r.final_error("tip_error_percent"), 5.0) << "tip " << r.final_error("tip_displacement_y");
+  EXPECT_LT(r.final_error("axis_displacement_y_l2_percent"), 5.0);
+  EXPECT_EQ(r.report.real_particles, 41u * 5u * 5u);
 }
 
+// Bad input: the parameter is named (the one check of every range, in the case reader),
+// and a depth without a row of particles on the axis is refused by the builder.
 TEST(Cantilever, ValidationNamesTheParameter) {
-  CantileverSettings<2> s;
-  s.poisson_ratio = 0.5;
-  auto errors = validate(s);
-  ASSERT_FALSE(errors.empty());
-  EXPECT_EQ(errors.front().parameter, "poisson_ratio");
-  s = {};
-  s.nodes_y = 12;
-  errors = validate(s);
-  ASSERT_FALSE(errors.empty());
-  EXPECT_EQ(errors.front().parameter, "nodes_y");
-  EXPECT_THROW(run_cantilever(s), std::invalid_argument);
+  try {
+    load_case(testing_cases::shipped_case("cantilever_2d.toml"), {"material.nu=0.5"});
+    ADD_FAILURE() << "nu = 0.5 accepted";
+  } catch (const CaseError& e) {
+    EXPECT_NE(e.messages().front().find("material.nu = 0.5 is invalid: must lie in (-1, 0.5)"), std::string::npos)
+        << e.what();
+  }
+  // 111 x 12: no particle on the axis y = 0.
+  const CaseFile even = load_case(testing_cases::shipped_case("cantilever_2d.toml"), {spacing_for(111)});
+  try {
+    build_case<2>(even);
+    ADD_FAILURE() << "a beam without an axis row accepted";
+  } catch (const CaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("needs a real particle on the beam axis"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -1,8 +1,11 @@
 // Case files: every shipped case is accepted; each class of bad input is refused with
-// a message naming the file, line, key, value and the fix; overrides work; the bar
-// case file reproduces run_bar (the same physics through the generic path).
-#include "engine/bar_case.hpp"
-#include "engine/cantilever_case.hpp"
+// a message naming the file, line, key, value and the fix; overrides work; the bar and
+// cantilever cases through the one builder equal solvers built by hand (the same
+// physics through the generic path).
+#include "engine/boundary_condition.hpp"
+#include "engine/region.hpp"
+#include "engine/validation/bar.hpp"
+#include "engine/validation/cantilever.hpp"
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/lattice.hpp"
@@ -106,9 +109,9 @@ TEST_F(CaseFileTest, ShippedCasesResolveToTheSeedSettings) {
   EXPECT_EQ(c.boundary_particles[2].second, 11u);  // the clamp: the whole face x = 0
   EXPECT_EQ(c.boundary_particles[1].second, 11u);  // the tip face, corners included
   EXPECT_EQ(c.boundary_particles[0].second, 198u); // top and bottom, less the four corners
-  // The 3D case holds tsph-cantilever's 3D defaults (README, The cantilever).
+  // The 3D case holds the converged 3D options (docs/validation.md).
   const CaseFile solid = load_case((kCases / "cantilever_3d.toml").string());
-  EXPECT_TRUE(solid.wall_gradient);
+  EXPECT_EQ(solid.velocity_wall, CaseFile::VelocityWall::wall_gradient);
   EXPECT_EQ(solid.hourglass_stiffness, 0.05);
   EXPECT_TRUE(solid.surface_extrapolation);
   EXPECT_TRUE(solid.free_edge_uniaxial);
@@ -314,26 +317,61 @@ TEST(EditDistance, CountsInsertionsDeletionsSubstitutions) {
   EXPECT_EQ(edit_distance("kitten", "sitting"), 3u);
 }
 
-// The bar case file runs the same physics as run_bar: identical errors to round-off
-// (the same particles, conditions and steps, so they are in fact bitwise equal).
-TEST_F(CaseFileTest, BarCaseFileReproducesRunBar) {
+// The bar case file runs the same physics as the bar built by hand (101 lattice
+// particles, the left end fixed, the velocity pulse at the right end, CFL 1 on the
+// output times): the same profiles bitwise, and errors at round-off (README, Table 1).
+TEST_F(CaseFileTest, BarCaseFileEqualsTheBarBuiltByHand) {
   const CaseFile c = load_case((kCases / "bar.toml").string());
   RunOptions options;
   options.out_dir = directory_.string();
   options.quiet = true;
+  std::vector<std::vector<double>> velocities;
+  options.on_frame = [&](const output::VtuFrame& f, double) {
+    for (const auto& a : f.arrays)
+      if (a.name == "velocity") {
+        velocities.emplace_back();
+        for (std::size_t i = 0; i < f.point_count; ++i) velocities.back().push_back(a.float64[3 * i]);
+      }
+  };
   set_thread_count(1);  // 101 particles: one thread is fastest on a busy machine
   const RunReport r = run_case(c, options);
-  BarCaseSettings s;
-  const BarResult reference = run_bar(s);
-  ASSERT_EQ(reference.profiles.size(), 2u);
-  std::vector<double> velocity_errors;
-  for (const auto& e : r.errors)
-    if (e.name == "velocity_x_l2_percent" && e.time > 0.0) velocity_errors.push_back(e.value);
-  ASSERT_EQ(velocity_errors.size(), 2u);
-  EXPECT_EQ(velocity_errors[0], reference.profiles[0].velocity_error_percent);
-  EXPECT_EQ(velocity_errors[1], reference.profiles[1].velocity_error_percent);
-  EXPECT_LT(velocity_errors[1], 1e-9);  // alpha 0.6, CFL 1: exact (README, Table 1)
-  EXPECT_EQ(r.steps, reference.steps);
+
+  LatticeBox<1> box;
+  box.node_count = {101};
+  box.spacing = 1.0 / 100.0;
+  ParticleSet<1> real = make_real_lattice(box, 2000.0);
+  ParticleSet<1> virtual_particles = make_virtual_lattice(box, 2000.0);
+  real.boundary.front() = 0;
+  real.boundary.back() = 1;
+  SolverSettings<1> settings;
+  settings.smoothing_length = 0.6 * box.spacing;
+  TaylorSph<1> solver(std::move(real), std::move(virtual_particles), LinearElastic<1>(8e7, 0.0, 2000.0), settings,
+                      {BoundaryCondition<1>::fixed("left"),
+                       BoundaryCondition<1>::velocity({TimeFunction::rectangular_pulse(1.0, 0.0, 2.5e-3)}, "right")});
+  const double dt = box.spacing / 200.0;
+  const BarExactSolution exact(1.0, 8e7, 2000.0, 1.0, 2.5e-3, true);
+  ASSERT_EQ(velocities.size(), 3u);  // t = 0, 3.75 ms, 7.5 ms
+  std::size_t frame = 1;
+  std::int64_t steps = 0;
+  for (double target : {3.75e-3, 7.5e-3}) {
+    while (solver.time() < target - 1e-9 * dt) {
+      const double remaining = target - solver.time();
+      const bool lands = remaining <= dt * (1.0 + 1e-9);
+      solver.step(lands ? remaining : dt);
+      if (lands) solver.set_time(target);
+      ++steps;
+    }
+    EXPECT_EQ(velocities[frame], solver.real().velocity[0]) << "t = " << target;
+    std::vector<double> v_exact;
+    for (double x : solver.real().initial_position[0]) v_exact.push_back(exact.velocity(x, target));
+    double error = std::nan("");
+    for (const auto& e : r.errors)
+      if (e.name == "velocity_x_l2_percent" && e.time == target) error = e.value;
+    EXPECT_EQ(error, relative_l2_percent(solver.real().velocity[0], v_exact));
+    EXPECT_LT(error, 1e-9);  // alpha 0.6, CFL 1: exact (README, Table 1)
+    ++frame;
+  }
+  EXPECT_EQ(r.steps, steps);
   EXPECT_EQ(r.frames, 3u);
   EXPECT_TRUE(fs::exists(directory_ / "particles.pvd"));
   EXPECT_TRUE(fs::exists(directory_ / "particles_000002.vtu"));
@@ -341,33 +379,60 @@ TEST_F(CaseFileTest, BarCaseFileReproducesRunBar) {
   EXPECT_TRUE(fs::exists(directory_ / "probe_middle.csv"));
 }
 
-// The 2D cantilever case file against run_cantilever (tsph-cantilever): the same
-// particles, conditions, parabolic tip shear, ramp, damping and hourglass filter, over
-// the first 233 steps (the last step of the case lands on time.end, so the time
-// differs by round-off: equal to 1e-9, not bitwise).
-// The case file holds tsph-cantilever's 2D defaults (method.velocity_wall =
+// The 2D cantilever case file against the beam built by hand (the lattice, the free
+// faces, the parabolic tip shear of seed eq. 6 under a ramp over T1, the clamp; damping
+// 2 omega_1, the hourglass filter), over the first 233 steps at CFL 0.9 (the last step
+// of the case lands on time.end, so the time differs by round-off: equal to 1e-9, not
+// bitwise). The case file holds the converged 2D options (method.velocity_wall =
 // "wall_gradient", method.hourglass_stiffness = 0.05, method.surface_extrapolation =
-// true); with the three set back (characteristics, 0, false) it runs tsph-cantilever's
-// --clamp characteristics --hourglass-stiffness 0 --no-surface-extrapolation.
+// true); with the three set back (characteristics, 0, false) it runs the former ones.
 class CantileverCaseFile : public CaseFileTest, public ::testing::WithParamInterface<bool> {};
 
-TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
+TEST_P(CantileverCaseFile, EqualsTheBeamBuiltByHand) {
   const bool wall_gradient = GetParam();
   set_thread_count(1);
-  CantileverSettings<2> s;  // seed 4.2 defaults: 101 x 11, plane stress, P = 1000 N
-  ASSERT_EQ(s.clamp, SolverSettings<2>::VelocityWall::wall_gradient);  // the 2D defaults
-  ASSERT_EQ(s.hourglass_stiffness, 0.05);
-  ASSERT_TRUE(s.surface_extrapolation);
-  if (!wall_gradient) {
-    s.clamp = SolverSettings<2>::VelocityWall::characteristics;
-    s.hourglass_stiffness = 0.0;
-    s.surface_extrapolation = false;
+  CantileverBeam<2> beam;  // seed 4.2: 1 m x 0.1 m, plane stress, P = 1000 N
+  beam.load = 1000.0;
+  const double dx = 0.01, omega = beam.first_mode_frequency(), period = 2.0 * M_PI / omega;
+  const LinearElastic<2> material(beam.young_modulus, beam.poisson_ratio, beam.density, PlaneMode::plane_stress);
+  const double dt = 0.9 * dx / material.p_wave_speed(beam.density);
+
+  LatticeBox<2> box;
+  box.spacing = dx;
+  box.lower = Vector<2>(0.0, -0.05);
+  box.node_count = {101, 11};
+  ParticleSet<2> real = make_real_lattice(box, beam.density);
+  ParticleSet<2> virtual_particles = make_virtual_lattice(box, beam.density);
+  auto tip_components = BoundaryCondition<2>::filled(TimeFunction::constant(0.0));
+  tip_components[1] = TimeFunction::linear_ramp(1.0, 0.0, period);
+  std::vector<BoundaryCondition<2>> conditions{
+      BoundaryCondition<2>::free("free surface"),
+      BoundaryCondition<2>::traction(tip_components, "tip shear",
+                                     [beam](const Vector<2>& x) { return Vector<2>(0.0, beam.tip_shear(x[1])); }),
+      BoundaryCondition<2>::fixed("clamp")};
+  const double tol = 1e-6 * dx;
+  assign_boundary(real, Region<2>::half_space("top", Vector<2>(1.0, 0.05), Vector<2>(0.0, 1.0)), 0, tol);
+  assign_boundary(real, Region<2>::half_space("bottom", Vector<2>(0.0, -0.05), Vector<2>(0.0, -1.0)), 0, tol);
+  assign_boundary(real, Region<2>::half_space("tip", Vector<2>(1.0, 0.0), Vector<2>(1.0, 0.0)), 1, tol);
+  assign_boundary(real, Region<2>::half_space("clamp", Vector<2>(0.0, 0.0), Vector<2>(-1.0, 0.0)), 2, tol);
+  SolverSettings<2> settings;
+  settings.smoothing_length = 0.6 * dx;
+  settings.damping = 2.0 * omega;
+  settings.hourglass_coefficient = 0.02;
+  if (wall_gradient) {
+    settings.hourglass_stiffness = 0.05;
+    settings.velocity_wall = SolverSettings<2>::VelocityWall::wall_gradient;
+    settings.surface_extrapolation = true;
   }
-  const double dt = s.cfl * s.spacing() /
-                    LinearElastic<2>(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode).p_wave_speed(s.density);
-  s.end_time = 232.5 * dt;  // run_cantilever steps while t < end: 233 steps
-  const CantileverResult reference = run_cantilever(s);
-  ASSERT_EQ(reference.steps, 233);
+  TaylorSph<2> reference(std::move(real), std::move(virtual_particles), material, settings, conditions);
+  for (int k = 0; k < 233; ++k) reference.step(dt);
+  std::size_t tip = 0;
+  for (std::size_t i = 0; i < reference.real().size(); ++i)
+    if (std::abs(reference.real().initial_position[0][i] - 1.0) < tol &&
+        std::abs(reference.real().initial_position[1][i]) < tol)
+      tip = i;
+  const double reference_tip = reference.real().displacement[1][tip];
+
   char end[64];
   std::snprintf(end, sizeof end, "time.end=%.17g", 233 * dt);
   std::vector<std::string> overrides{end, "damping.rest_velocity=0"};
@@ -377,7 +442,7 @@ TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
     overrides.emplace_back("method.surface_extrapolation=false");
   }
   const CaseFile c = load_case((kCases / "cantilever_2d.toml").string(), overrides);
-  EXPECT_EQ(c.wall_gradient, wall_gradient);
+  EXPECT_EQ(c.velocity_wall == CaseFile::VelocityWall::wall_gradient, wall_gradient);
   EXPECT_EQ(c.hourglass_stiffness, wall_gradient ? 0.05 : 0.0);
   EXPECT_EQ(c.surface_extrapolation, wall_gradient);
   RunOptions options;
@@ -385,11 +450,11 @@ TEST_P(CantileverCaseFile, ReproducesRunCantilever) {
   options.quiet = true;
   const RunReport r = run_case(c, options);
   EXPECT_EQ(r.steps, 233);
-  double tip = std::nan("");
+  double tip_case = std::nan("");
   for (const auto& e : r.errors)
-    if (e.name == "tip_displacement_y" && e.time == r.time) tip = e.value;
-  ASSERT_GT(std::abs(reference.tip_deflection), 1e-9);  // the load has moved the tip
-  EXPECT_NEAR(tip, reference.tip_deflection, 1e-9 * std::abs(reference.tip_deflection));
+    if (e.name == "tip_displacement_y" && e.time == r.time) tip_case = e.value;
+  ASSERT_GT(std::abs(reference_tip), 1e-9);  // the load has moved the tip
+  EXPECT_NEAR(tip_case, reference_tip, 1e-9 * std::abs(reference_tip));
 }
 INSTANTIATE_TEST_SUITE_P(Clamp, CantileverCaseFile, ::testing::Values(false, true),
                          [](const ::testing::TestParamInfo<bool>& clamp) { return clamp.param ? "WallGradient" : "Characteristics"; });

@@ -2,12 +2,13 @@
 // (step, time, particle, position, likely cause); a CFL above the stability limit is
 // refused unless forced; results are bitwise identical across thread counts and runs in
 // 2D and 3D; output files are written whole or not at all.
-#include "engine/bar_case.hpp"
+#include "engine/case/case_run.hpp"
 #include "engine/lattice.hpp"
 #include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
 #include "engine/region.hpp"
 #include "engine/taylor_sph.hpp"
+#include "tests/case_helpers.hpp"
 
 #include <gtest/gtest.h>
 
@@ -39,39 +40,59 @@ long diverged_step(const std::string& message) {
   return std::regex_search(message, m, pattern) ? std::stol(m[1]) : -1;
 }
 
-BarCaseSettings seed_bar() {
-  BarCaseSettings s;
-  s.output_times = {3.75e-3, 7.5e-3};
-  return s;
+/// The seed's bar (tools/cases/bar.toml) with overrides, run through the case pipeline.
+testing_cases::CaseRun seed_bar(const std::vector<std::string>& overrides) {
+  return testing_cases::run_case_file(testing_cases::shipped_case("bar.toml"), overrides);
+}
+
+/// The first message of loading the bar case with overrides ("" if it is accepted).
+std::string bar_error(const std::vector<std::string>& overrides) {
+  try {
+    load_case(testing_cases::shipped_case("bar.toml"), overrides);
+  } catch (const CaseError& e) {
+    return e.messages().front();
+  }
+  return {};
 }
 
 TEST(Instability, CflAboveTheLimitIsRefusedUnlessForced) {
-  BarCaseSettings s = seed_bar();
-  s.cfl = 1.5;
-  const auto errors = validate(s);
-  ASSERT_EQ(errors.size(), 1u);
-  EXPECT_EQ(errors[0].parameter, "cfl");
-  EXPECT_TRUE(contains(errors[0].message(), "unstable above CFL 1")) << errors[0].message();
-  EXPECT_THROW(run_bar(s), std::invalid_argument);
-  s.force = true;
-  EXPECT_TRUE(validate(s).empty());
-  s.cfl = std::numeric_limits<double>::infinity();  // forced, but still a number
-  EXPECT_FALSE(validate(s).empty());
+  const std::string m = bar_error({"time.cfl=1.5"});
+  EXPECT_TRUE(contains(m, "time.cfl = 1.5 is invalid")) << m;
+  EXPECT_TRUE(contains(m, "unstable above CFL 1")) << m;
+  EXPECT_EQ(bar_error({"time.cfl=1.5", "time.force=true"}), "");
+  // forced, but still a number
+  EXPECT_TRUE(contains(bar_error({"time.cfl=inf", "time.force=true"}), "time.cfl = inf is invalid"));
+  // A fixed time.dt above the limit dx / c_p = 5e-5 s: refused by the builder unless forced.
+  std::ifstream in(testing_cases::shipped_case("bar.toml"));
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string bar = text.str();
+  const auto cfl = bar.find("cfl = 1.0");
+  ASSERT_NE(cfl, std::string::npos);
+  bar.replace(cfl, 9, "dt = 6e-5");
+  try {
+    inspect_case(load_case_text(bar, "bar-dt.toml"));
+    ADD_FAILURE() << "dt above the limit accepted";
+  } catch (const CaseError& e) {
+    EXPECT_TRUE(contains(e.what(), "time.dt = 6e-05 is invalid: exceeds the stability limit")) << e.what();
+  }
+  EXPECT_NO_THROW(inspect_case(load_case_text(bar, "bar-dt.toml", {"time.force=true"})));
 }
 
 // CFL 1.5 amplifies the shortest wave of the bar by |1 - 2 CFL^2| = 3.5 per step (energy
 // x12): caught as a runaway within a few steps of dominating, long before it overflows
 // (about 300 steps), the CFL named as the cause.
 TEST(Instability, ForcedUnstableCflIsStoppedAsARunawayNamingTheCfl) {
-  BarCaseSettings s = seed_bar();
-  s.cfl = 1.5;
-  s.force = true;
-  int profiles = 0;
-  s.on_profile = [&](const BarProfile&) { ++profiles; };
+  int frames = 0;
+  const CaseFile c = load_case(testing_cases::shipped_case("bar.toml"), {"time.cfl=1.5", "time.force=true"});
+  RunOptions options;
+  options.out_dir = testing_cases::fresh_output_directory();
+  options.quiet = true;
+  options.on_frame = [&](const output::VtuFrame&, double t) { frames += t > 0.0; };
   try {
-    run_bar(s);
+    run_case(c, options);
     FAIL() << "the forced CFL 1.5 run was not stopped";
-  } catch (const SolutionDiverged& e) {
+  } catch (const RunDiverged& e) {
     const std::string m = e.what();
     const long step = diverged_step(m);
     EXPECT_GT(step, 0) << m;
@@ -80,19 +101,17 @@ TEST(Instability, ForcedUnstableCflIsStoppedAsARunawayNamingTheCfl) {
     EXPECT_TRUE(contains(m, "runaway")) << m;
     EXPECT_TRUE(contains(m, "likely cause: the time step: CFL = dt c_p / dx = 1.5")) << m;
   }
-  EXPECT_EQ(profiles, 0);  // diverged before the first output time: nothing sampled
+  EXPECT_EQ(frames, 0);  // diverged before the first output time: nothing but t = 0 written
+  std::filesystem::remove_all(options.out_dir);
 }
 
 // A slightly unstable CFL (1.05: energy x1.45 per step at the shortest wave) is caught by
 // the slower runaway criterion, still before the first output time (step 75).
 TEST(Instability, SlightlyUnstableCflIsStoppedBeforeItsFirstOutput) {
-  BarCaseSettings s = seed_bar();
-  s.cfl = 1.05;
-  s.force = true;
   try {
-    run_bar(s);
+    seed_bar({"time.cfl=1.05", "time.force=true"});
     FAIL() << "the forced CFL 1.05 run was not stopped";
-  } catch (const SolutionDiverged& e) {
+  } catch (const RunDiverged& e) {
     EXPECT_LT(diverged_step(e.what()), 75) << e.what();
     EXPECT_TRUE(contains(e.what(), "CFL = dt c_p / dx = 1.05")) << e.what();
   }
@@ -102,9 +121,7 @@ TEST(Instability, SlightlyUnstableCflIsStoppedBeforeItsFirstOutput) {
 // the pulse entering the bar (energy growing linearly) for an instability.
 TEST(Instability, StableRunsAtTheLimitAreNotStopped) {
   for (double alpha : {0.6, 1.2, 1.6}) {
-    BarCaseSettings s = seed_bar();
-    s.alpha = alpha;
-    EXPECT_NO_THROW(run_bar(s)) << "alpha " << alpha;
+    EXPECT_NO_THROW(seed_bar({"method.alpha=" + std::to_string(alpha)})) << "alpha " << alpha;
   }
 }
 

@@ -1,5 +1,5 @@
 // The one-step map U^{n+1} = G U^n + f (engine/step_map.hpp), behind tsph-spectrum.
-#include "engine/cantilever_case.hpp"
+#include "engine/case/case_build.hpp"
 #include "engine/lattice.hpp"
 #include "engine/step_map.hpp"
 
@@ -61,12 +61,11 @@ TEST(StepMap, BarIsStableAtCfl1AndUnstableAbove) {
 // G U + f equals one ordinary solver step from U (the map is the step, and affine):
 // the 2D cantilever, 21 x 3, a random state, under the full load.
 TEST(StepMap, CantileverMapReproducesAStep) {
-  CantileverSettings<2> s;
-  s.nodes_x = 21;
-  s.nodes_y = 3;
-  CantileverModel<2> model = make_cantilever(s);
-  TaylorSph<2>& solver = *model.solver;
-  const double dt = model.time_step, t = model.ramp + model.period;
+  // The 2D cantilever case at dx = 0.05 (21 x 3), under the full load (after the ramp).
+  const CaseFile c = load_case(TSPH_SOURCE_DIR "/tools/cases/cantilever_2d.toml", {"geometry.spacing=0.05"});
+  BuiltCase<2> built = build_case<2>(c);
+  TaylorSph<2> solver = make_solver(c, built);
+  const double dt = built.dt, t = 1.0;
   const auto layout = step_map_layout(solver, dt);
   // Plane stress: sxx, syy, sxy, vx, vy, and ux, uy for the hourglass stiffness (on by
   // default in 2D, as are the wall clamp and the surface extrapolation).

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Configures (once) and builds tsph in build/ (Release, tests and benchmarks on).
-# Extra arguments are passed to `cmake --build` (for example: --target tsph-bar).
+# Extra arguments are passed to `cmake --build` (for example: --target tsph).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/tools/setup.sh"

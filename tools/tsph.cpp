@@ -3,6 +3,9 @@
 //   tsph run CASE [--set key=value]... [--out DIR] [--overwrite] [--threads N] [--quiet]
 //            [--restart CHECKPOINT|DIR] [--ignore-limits]
 //   tsph check CASE [--set key=value]... [--ignore-limits]
+//   tsph table1 [BAR_CASE] [--set key=value]... [--out DIR]     (tools/tsph_table1.cpp)
+//   tsph spectrum CASE [--set key=value]... [--out DIR]         (tools/tsph_spectrum.cpp)
+//   tsph converge CASE --sweep KEY=V1,V2,... [--out DIR]        (tools/tsph_converge.cpp)
 //   tsph --version
 //
 // Exit status: 0 success, 2 bad input (case file, overrides, output directory, a run
@@ -15,6 +18,7 @@
 #include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
 #include "tools/cli_common.hpp"
+#include "tools/tsph_commands.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -290,6 +294,9 @@ int main(int argc, char** argv) {
   add_case_options(check_cmd);
   check_cmd->add_flag("--ignore-limits", o.ignore_limits,
                       "build the case even if it exceeds the machine's memory or disk");
+  const cli::Subcommand studies[] = {cli::add_table1(app), cli::add_spectrum(app), cli::add_converge(app)};
   if (const auto stop = cli::parse(app, argc, argv)) return *stop;
+  for (const auto& study : studies)
+    if (study.app->parsed()) return study.run();
   return run(o, check_cmd->parsed());
 }

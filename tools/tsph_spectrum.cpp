@@ -1,20 +1,25 @@
-// tsph-spectrum: the one-step map of the cantilever, U^{n+1} = G U^n + f, assembled
-// column by column (engine/step_map.hpp), its eigenvalues, and its fixed point.
+// tsph spectrum CASE: the one-step map of a case, U^{n+1} = G U^n + f, assembled column
+// by column (engine/step_map.hpp), its eigenvalues, and its fixed point.
 //
-//   tsph-spectrum [--dim 2|3] [--nx 41] [--plane stress|strain] [cantilever options]
+//   tsph spectrum tools/cases/cantilever_2d.toml --set geometry.spacing=0.025 [--modes 8] [--out DIR]
 //
 // Prints the spectral radius, the eigenvalues of largest modulus with what their modes
 // are made of (which particles, which fields, how much of the cell-wise checkerboard the
-// virtual particles cannot see), and the fixed point U* = (I - G)^-1 f under the full
-// load: a velocity in U* is a creep at constant speed, which damping cannot remove.
-// Writes eigenvalues.csv (every eigenvalue and its mode's make-up), modes.csv (the
-// leading modes, particle by particle) and fixed_point.csv (U* per particle) to --out.
-// Exit status: 0, 2 bad input, 1 failure.
-#include "engine/cantilever_case.hpp"
+// virtual particles cannot see), and the fixed point U* = (I - G)^-1 f under the load at
+// time.end: a velocity in U* is a creep at constant speed, which damping cannot remove.
+// The case must be one box on a lattice (the modes are read on it); its particles are
+// grouped by the type of their boundary condition (fixed: clamp, traction or velocity:
+// loaded end, free: free surface). Writes eigenvalues.csv (every eigenvalue and its
+// mode's make-up), modes.csv (the leading modes, particle by particle) and
+// fixed_point.csv (U* per particle) to --out. G is dense: keep the case small (41 x 5).
+#include "engine/case/case_build.hpp"
+#include "engine/case/case_file.hpp"
 #include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
 #include "engine/step_map.hpp"
+#include "engine/validation/cantilever.hpp"
 #include "tools/cli_common.hpp"
+#include "tools/tsph_commands.hpp"
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Eigenvalues>
@@ -26,24 +31,21 @@
 #include <cmath>
 #include <complex>
 #include <filesystem>
+#include <memory>
 #include <numeric>
 #include <string>
 
+namespace tsph::cli {
 namespace {
 
-using namespace tsph;
 using Complex = std::complex<double>;
 
-struct Options {
-  int dim = 2;
-  std::string plane = "stress";
-  int nodes_x = 41;
-  double alpha = 0.6, cfl = 0.9, damping = -1.0, hourglass = 0.02, hourglass_stiffness = 0.0;
-  std::string clamp = "characteristics";
-  bool surface_extrapolation = false;
+struct SpectrumOptions {
+  std::string case_path;
+  std::vector<std::string> overrides;
   int modes = 8;
   std::string out = "out/spectrum";
-  int threads = 0;
+  int threads = -1;
 };
 
 /// Where a particle is: the part of the beam its mode weight is summed over.
@@ -64,12 +66,16 @@ struct Geometry {
 };
 
 template <int Dim>
-Geometry<Dim> classify(const TaylorSph<Dim>& solver, const CantileverSettings<Dim>& s) {
+Geometry<Dim> classify(const TaylorSph<Dim>& solver, const CaseFile& c) {
   Geometry<Dim> g;
   const auto& r = solver.real();
-  const double dx = s.spacing();
-  const double lower[3] = {0.0, -0.5 * s.depth, -0.5 * s.width};
-  g.count = {s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1};
+  const double dx = c.spacing;
+  double lower[3] = {0.0, 0.0, 0.0};
+  for (int d = 0; d < Dim; ++d) {
+    lower[d] = c.box_lower[static_cast<std::size_t>(d)];
+    g.count[static_cast<std::size_t>(d)] =
+        static_cast<int>(std::lround((c.box_upper[static_cast<std::size_t>(d)] - lower[d]) / dx)) + 1;
+  }
   g.at.assign(static_cast<std::size_t>(g.count[0] * g.count[1] * g.count[2]), -1);
   for (std::size_t p = 0; p < r.size(); ++p) {
     std::array<int, 3> idx{0, 0, 0};
@@ -83,11 +89,14 @@ Geometry<Dim> classify(const TaylorSph<Dim>& solver, const CantileverSettings<Di
     for (int d = 1; d < Dim; ++d)
       side = side || idx[static_cast<std::size_t>(d)] == 0 ||
              idx[static_cast<std::size_t>(d)] == g.count[static_cast<std::size_t>(d)] - 1;
-    const std::int32_t b = r.boundary[p];  // 0 free, 1 tip, 2 clamp (cantilever_case)
+    const std::int32_t b = r.boundary[p];  // an index into the case's boundaries, or none
+    const std::string type = b >= 0 && static_cast<std::size_t>(b) < c.boundaries.size()
+                                 ? c.boundaries[static_cast<std::size_t>(b)].type
+                                 : "";
     Region region = kBulk;
-    if (b == 2) region = side ? kClampCorner : kClamp;
-    else if (b == 1) region = side ? kTipCorner : kTip;
-    else if (b == 0) region = kFree;
+    if (type == "fixed") region = side ? kClampCorner : kClamp;
+    else if (type == "traction" || type == "velocity") region = side ? kTipCorner : kTip;
+    else if (type == "free") region = kFree;
     else if (idx[0] <= 2) region = kNearClamp;
     g.region.push_back(region);
   }
@@ -169,36 +178,29 @@ std::string field_name(const StepMapUnknown& u) {
 }
 
 template <int Dim>
-int run(const Options& o) {
-  CantileverSettings<Dim> s;
-  s.nodes_x = o.nodes_x;
-  const double dx = s.length / (o.nodes_x - 1);
-  s.nodes_y = static_cast<int>(std::lround(s.depth / dx)) + 1;
-  s.nodes_z = static_cast<int>(std::lround(s.width / dx)) + 1;
-  s.plane_mode = o.plane == "strain" ? PlaneMode::plane_strain : PlaneMode::plane_stress;
-  s.alpha = o.alpha;
-  s.cfl = o.cfl;
-  s.damping = o.damping;
-  s.hourglass = o.hourglass;
-  s.hourglass_stiffness = o.hourglass_stiffness;
-  s.clamp = o.clamp == "wall-gradient" ? SolverSettings<Dim>::VelocityWall::wall_gradient
-                                       : SolverSettings<Dim>::VelocityWall::characteristics;
-  s.surface_extrapolation = o.surface_extrapolation;
-  if (const auto errors = validate(s); !errors.empty()) {
-    for (const auto& e : errors) fmt::print(stderr, "tsph-spectrum: error: {}\n", e.message());
-    return cli::kExitBadInput;
-  }
-  CantileverModel<Dim> model = make_cantilever(s);
-  TaylorSph<Dim>& solver = *model.solver;
-  const double dt = model.time_step;
+int run(const SpectrumOptions& o, const CaseFile& c) {
+  if constexpr (Dim == 1) {
+    throw CaseError({c.path + ": tsph spectrum reads the modes on a 2D or 3D lattice: give a case of dimension 2 or 3"});
+  } else {
+  if (c.box_lower.empty())
+    throw CaseError({c.path + ": tsph spectrum needs geometry.box (one box on a lattice): the modes are read on it"});
+  BuiltCase<Dim> built = build_case<Dim>(c);
+  const auto* beam = dynamic_cast<const CantileverValidation<Dim>*>(built.exact.get());
+  const double dt = built.dt;
+  TaylorSph<Dim> solver = make_solver(c, built);
   const StepMapLayout<Dim> layout = step_map_layout(solver, dt);
   const auto n = static_cast<Eigen::Index>(layout.unknowns.size());
-  const Geometry<Dim> geometry = classify(solver, s);
-  fmt::print("{}D cantilever {} x {}{} ({}), alpha {}, CFL {}, damping {:.4g} 1/s, hourglass filter {}, "
-             "hourglass stiffness {}: {} unknowns\n",
-             Dim, s.nodes_x, s.nodes_y, Dim == 3 ? fmt::format(" x {}", s.nodes_z) : "",
-             Dim == 2 ? (o.plane == "strain" ? "plane strain" : "plane stress") : "3D", s.alpha,
-             s.cfl, solver.settings().damping, s.hourglass, s.hourglass_stiffness, n);
+  const Geometry<Dim> geometry = classify(solver, c);
+  const double dx = c.spacing;
+  const double depth = c.box_upper[1] - c.box_lower[1];
+  const double width = Dim == 3 ? c.box_upper[2] - c.box_lower[2] : 0.0;
+  const std::size_t tip = beam ? beam->tip() : geometry.index.size();
+  fmt::print("{} ({}D) {} x {}{}{}, alpha {}, CFL {:.3g}, damping {:.4g} 1/s, hourglass filter {}, "
+             "hourglass stiffness {}, velocity_wall {}: {} unknowns\n",
+             c.path, Dim, geometry.count[0], geometry.count[1], Dim == 3 ? fmt::format(" x {}", geometry.count[2]) : "",
+             Dim == 2 ? (c.plane_mode == PlaneMode::plane_strain ? " (plane strain)" : " (plane stress)") : "",
+             c.alpha, dt * built.wave_speed / dx, solver.settings().damping, c.hourglass, c.hourglass_stiffness,
+             c.velocity_wall == CaseFile::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics", n);
 
   auto clock = std::chrono::steady_clock::now();
   auto lap = [&] {
@@ -209,13 +211,13 @@ int run(const Options& o) {
   };
   // G at t = 0 (any time: the step is affine), f under the full load (after the ramp).
   const Eigen::MatrixXd map = assemble_step_map(solver, layout, 0.0, dt);
-  const double loaded_time = model.ramp + model.period;
+  const double loaded_time = c.end_time;  // the load as it stands at time.end
   const Eigen::VectorXd load = apply_step(solver, layout, Eigen::VectorXd::Zero(n), loaded_time, dt);
   fmt::print("G assembled in {:.1f} s\n", lap());
 
   Eigen::EigenSolver<Eigen::MatrixXd> eigen(map, true);
   if (eigen.info() != Eigen::Success) {
-    fmt::print(stderr, "tsph-spectrum: failed: the eigenvalue iteration did not converge\n");
+    fmt::print(stderr, "tsph: failed: the eigenvalue iteration did not converge\n");
     return cli::kExitFailure;
   }
   const Eigen::VectorXcd lambda = eigen.eigenvalues();
@@ -310,17 +312,19 @@ int run(const Options& o) {
     const auto& u = layout.unknowns[static_cast<std::size_t>(k)];
     if (u.field == StepMapUnknown::Field::velocity) particle_speed[u.particle] += fixed[k] * fixed[k];
     if (u.field == StepMapUnknown::Field::stress) stress_max = std::max(stress_max, std::abs(fixed[k]) * layout.stress_unit);
-    if (u.particle == model.tip && u.field == StepMapUnknown::Field::velocity && u.component == 1)
+    if (u.particle == tip && u.field == StepMapUnknown::Field::velocity && u.component == 1)
       tip_velocity = fixed[k];
   }
   for (std::size_t p = 0; p < particle_speed.size(); ++p)
     if (particle_speed[p] > speed) speed = particle_speed[p], fastest = p;
   speed = std::sqrt(speed);
-  const CantileverExact<Dim> exact(s);
   fmt::print("limit state (I - P1) U* under the full load (residual {:.2e}): largest |v| {:.4e} m/s at particle "
-             "({},{},{}) [{}], tip v_y {:.4e} m/s = {:.3g} exact tip deflections per second; largest |sigma| {:.4e} Pa\n",
+             "({},{},{}) [{}]; largest |sigma| {:.4e} Pa\n",
              residual, speed, geometry.index[fastest][0], geometry.index[fastest][1], geometry.index[fastest][2],
-             kRegionNames[geometry.region[fastest]], tip_velocity, tip_velocity / exact.tip_deflection(), stress_max);
+             kRegionNames[geometry.region[fastest]], stress_max);
+  if (beam)
+    fmt::print("  tip v_y {:.4e} m/s = {:.3g} exact tip deflections per second\n", tip_velocity,
+               tip_velocity / beam->tip_exact());
 
   // The displacement rate in the limit state: one step from it, displacement from zero.
   {
@@ -339,11 +343,12 @@ int run(const Options& o) {
       const auto e = static_cast<Eigen::Index>(k);
       const double rate = (next[e] - state[e]) * with_displacement.displacement_unit / dt;
       largest_rate = std::max(largest_rate, std::abs(rate));
-      if (u.particle == model.tip && u.component == 1) tip_rate = rate;
+      if (u.particle == tip && u.component == 1) tip_rate = rate;
     }
-    fmt::print("displacement rate in the limit state: tip du_y/dt {:.4e} m/s = {:.3g} exact tip "
-               "deflections per second (the creep); largest |du/dt| {:.4e} m/s\n",
-               tip_rate, tip_rate / exact.tip_deflection(), largest_rate);
+    fmt::print("displacement rate in the limit state: largest |du/dt| {:.4e} m/s\n", largest_rate);
+    if (beam)
+      fmt::print("  tip du_y/dt {:.4e} m/s = {:.3g} exact tip deflections per second (the creep)\n", tip_rate,
+                 tip_rate / beam->tip_exact());
   }
 
   // Files.
@@ -377,7 +382,7 @@ int run(const Options& o) {
       const auto& idx = geometry.index[p];
       fmt::format_to(std::back_inserter(modes), "{},{:.12g},{:.12g},{},{},{},{:.6g},{:.6g},{:.6g},{}", q,
                      lambda[k].real(), lambda[k].imag(), idx[0], idx[1], idx[2], idx[0] * dx,
-                     idx[1] * dx - 0.5 * s.depth, Dim == 3 ? idx[2] * dx - 0.5 * s.width : 0.0,
+                     idx[1] * dx - 0.5 * depth, Dim == 3 ? idx[2] * dx - 0.5 * width : 0.0,
                      kRegionNames[geometry.region[p]]);
       for (std::size_t slot = 0; slot < per; ++slot)
         fmt::format_to(std::back_inserter(modes), ",{:.6e}", w[static_cast<Eigen::Index>(p * per + slot)].real());
@@ -389,7 +394,7 @@ int run(const Options& o) {
   for (std::size_t p = 0; p < geometry.index.size(); ++p) {
     const auto& idx = geometry.index[p];
     fmt::format_to(std::back_inserter(fixed_csv), "{},{},{},{:.6g},{:.6g},{:.6g},{}", idx[0], idx[1], idx[2],
-                   idx[0] * dx, idx[1] * dx - 0.5 * s.depth, Dim == 3 ? idx[2] * dx - 0.5 * s.width : 0.0,
+                   idx[0] * dx, idx[1] * dx - 0.5 * depth, Dim == 3 ? idx[2] * dx - 0.5 * width : 0.0,
                    kRegionNames[geometry.region[p]]);
     for (std::size_t slot = 0; slot < per; ++slot) {
       const auto& u = layout.unknowns[p * per + slot];
@@ -400,47 +405,48 @@ int run(const Options& o) {
   }
   write_file_atomically(out / "fixed_point.csv", fixed_csv);
   fmt::print("SVD, analysis and files in {:.1f} s; output in {}\n", lap(), o.out);
-  return cli::kExitOk;
+  return kExitOk;
+  }
+}
+
+int run_spectrum(const SpectrumOptions& o) {
+  const CaseFile c = load_case(o.case_path, o.overrides);
+  set_thread_count(o.threads >= 0 ? o.threads : c.threads);
+  if (!prepare_output_directory("tsph", o.out)) return kExitBadInput;
+  switch (c.dimension) {
+    case 2: return run<2>(o, c);
+    case 3: return run<3>(o, c);
+    default: return run<1>(o, c);
+  }
 }
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  Options o;
-  CLI::App app{"tsph-spectrum: eigenvalues and fixed point of the cantilever's one-step map"};
-  app.add_option("--dim", o.dim, "2 or 3")->capture_default_str()->check(CLI::IsMember({2, 3}));
-  app.add_option("--plane", o.plane, "2D model: stress | strain")
-      ->capture_default_str()->check(CLI::IsMember({"stress", "strain"}));
-  app.add_option("--nx", o.nodes_x, "real particles along the length")->capture_default_str();
-  app.add_option("--alpha", o.alpha, "h / dx")->capture_default_str();
-  app.add_option("--cfl", o.cfl, "dt = CFL dx / c_p")->capture_default_str();
-  app.add_option("--damping", o.damping, "velocity damping c (1/s); < 0: 2 omega_1")->capture_default_str();
-  app.add_option("--hourglass", o.hourglass, "surface hourglass filter coefficient in [0, 1)")->capture_default_str();
-  app.add_option("--hourglass-stiffness", o.hourglass_stiffness, "hourglass stiffness kappa in [0, 1]")
-      ->capture_default_str();
-  app.add_option("--clamp", o.clamp,
-                 "stress of the clamped particles: characteristics | wall-gradient (bulk update "
-                 "with the half-step velocity gradient taken relative to the wall velocity)")
-      ->capture_default_str()->check(CLI::IsMember({"characteristics", "wall-gradient"}));
-  app.add_flag("--surface-extrapolation", o.surface_extrapolation,
-               "free-surface tangential strain rate extrapolated to the surface (SolverSettings)");
-  app.add_option("--modes", o.modes, "leading modes written to modes.csv")->capture_default_str();
-  app.add_option("--out", o.out, "output directory")->capture_default_str();
-  app.add_option("--threads", o.threads, "OpenMP threads (0: OpenMP default)");
-  if (const auto stop = cli::parse(app, argc, argv)) return *stop;
-  if (o.nodes_x < 3) {
-    fmt::print(stderr, "tsph-spectrum: error: nx = {} is invalid: needs at least 3\n", o.nodes_x);
-    return cli::kExitBadInput;
-  }
-  set_thread_count(o.threads);
-  if (!cli::prepare_output_directory("tsph-spectrum", o.out)) return cli::kExitBadInput;
-  try {
-    return o.dim == 2 ? run<2>(o) : run<3>(o);
-  } catch (const std::invalid_argument& e) {
-    fmt::print(stderr, "tsph-spectrum: error: {}\n", e.what());
-    return cli::kExitBadInput;
-  } catch (const std::exception& e) {
-    fmt::print(stderr, "tsph-spectrum: failed: {}\n", e.what());
-    return cli::kExitFailure;
-  }
+Subcommand add_spectrum(CLI::App& app) {
+  auto o = std::make_shared<SpectrumOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "spectrum", "eigenvalues and fixed point of a case's one-step map (a small 2D or 3D box case)");
+  sub->add_option("CASE", o->case_path, "case file (TOML)")->required();
+  sub->add_option("--set", o->overrides, "override a key of the case, e.g. --set geometry.spacing=0.025 (repeatable)")
+      ->type_name("KEY=VALUE")
+      ->take_all()
+      ->allow_extra_args(false);
+  sub->add_option("--modes", o->modes, "leading modes written to modes.csv")->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--out", o->out, "output directory")->capture_default_str();
+  sub->add_option("--threads", o->threads, "OpenMP threads (0: OpenMP default; overrides the case's threads)")
+      ->check(CLI::NonNegativeNumber);
+  return {sub, [o] {
+            try {
+              return run_spectrum(*o);
+            } catch (const CaseError& e) {
+              for (const auto& m : e.messages()) fmt::print(stderr, "tsph: error: {}\n", m);
+              return kExitBadInput;
+            } catch (const std::exception& e) {
+              fmt::print(stderr, "tsph: failed: {}\n", e.what());
+              return kExitFailure;
+            }
+          }};
 }
+
+}  // namespace tsph::cli

@@ -418,12 +418,11 @@ RegionSpec read_region(Table t, std::size_t dim) {
   return r;
 }
 
+CaseFile read_case(toml::table root, const std::string& path, const std::vector<std::string>& overrides);
+
 }  // namespace
 
 CaseFile load_case(const std::string& path, const std::vector<std::string>& overrides) {
-  Context context;
-  context.file = path;
-  toml::table root;
   {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec))
@@ -432,12 +431,29 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
                        "): check the path"});
   }
   try {
-    root = toml::parse_file(path);
+    return read_case(toml::parse_file(path), path, overrides);
   } catch (const toml::parse_error& e) {
     throw CaseError({path + ":" + std::to_string(e.source().begin.line) + ":" +
                      std::to_string(e.source().begin.column) + ": TOML syntax error: " +
                      std::string(e.description())});
   }
+}
+
+CaseFile load_case_text(const std::string& text, const std::string& name, const std::vector<std::string>& overrides) {
+  try {
+    return read_case(toml::parse(text, name), name, overrides);
+  } catch (const toml::parse_error& e) {
+    throw CaseError({name + ":" + std::to_string(e.source().begin.line) + ":" +
+                     std::to_string(e.source().begin.column) + ": TOML syntax error: " +
+                     std::string(e.description())});
+  }
+}
+
+namespace {
+
+CaseFile read_case(toml::table root, const std::string& path, const std::vector<std::string>& overrides) {
+  Context context;
+  context.file = path;
   for (const auto& o : overrides) apply_override(root, o, context);
   if (!context.errors.empty()) throw CaseError(context.errors);
 
@@ -539,8 +555,10 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     c.hourglass_stiffness =
         m.real("hourglass_stiffness", false, "0.05", [](double k) { return k >= 0.0 && k <= 1.0; },
                "must lie in [0, 1]").value_or(0.0);
-    c.wall_gradient = m.text("velocity_wall", false, {"characteristics", "wall_gradient"})
-                          .value_or("characteristics") == "wall_gradient";
+    c.velocity_wall = m.text("velocity_wall", false, {"characteristics", "wall_gradient"})
+                                  .value_or("characteristics") == "wall_gradient"
+                          ? CaseFile::VelocityWall::wall_gradient
+                          : CaseFile::VelocityWall::characteristics;
     c.surface_extrapolation = m.boolean("surface_extrapolation").value_or(false);
     c.free_edge_uniaxial = m.boolean("free_edge_uniaxial").value_or(false);
     if (c.free_edge_uniaxial && c.dimension != 3)
@@ -564,8 +582,12 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     Table t = top.table("time", true);
     c.end_time = t.real("end", true, "7.5e-3", positive, kPositive + " (s)").value_or(0.0);
     const bool has_cfl = t.has("cfl"), has_dt = t.has("dt");
-    c.cfl = t.real("cfl", false, "0.9", [](double v) { return v > 0.0 && v <= 1.0; },
-                   "must lie in (0, 1]: the two-step scheme is unstable above CFL 1").value_or(0.0);
+    c.force = t.boolean("force").value_or(false);
+    const bool force = c.force;
+    c.cfl = t.real("cfl", false, "0.9", [force](double v) { return v > 0.0 && (v <= 1.0 || (force && v <= 4.0)); },
+                   force ? "must lie in (0, 4] (time.force = true)"
+                         : "must lie in (0, 1]: the two-step scheme is unstable above CFL 1 (time.force = true runs "
+                           "it anyway, to study the instability)").value_or(0.0);
     c.dt = t.real("dt", false, "1e-5", positive, kPositive + " (s)").value_or(0.0);
     if (has_cfl && has_dt)
       context.errors.push_back(context.where(t.get("dt", false, "")) +
@@ -634,6 +656,8 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     Table d = top.table("damping", false);
     c.damping = d.real("coefficient", false, "40", non_negative, "must be >= 0 (1/s)").value_or(0.0);
     c.rest_velocity = d.real("rest_velocity", false, "1e-6", non_negative, "must be >= 0 (m/s)").value_or(0.0);
+    c.rest_kinetic_energy = d.real("rest_kinetic_energy", false, "5e-4", non_negative,
+                                   "must be >= 0 (J; per unit thickness in 2D)").value_or(0.0);
     c.rest_after = d.real("rest_after", false, "0.4", non_negative, "must be >= 0 (s)").value_or(0.0);
     c.rest_probe = d.text("rest_probe", false).value_or("");
     d.finish();
@@ -704,4 +728,5 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
   return c;
 }
 
+}  // namespace
 }  // namespace tsph

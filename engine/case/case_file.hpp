@@ -84,7 +84,9 @@ struct CaseFile {
   Kinematics kinematics = Kinematics::small_strain;
   double hourglass = 0.0;
   double hourglass_stiffness = 0.0;  ///< SolverSettings::hourglass_stiffness
-  bool wall_gradient = false;        ///< velocity_wall = "wall_gradient" (else characteristics)
+  /// method.velocity_wall: SolverSettings::velocity_wall (the same names and order).
+  enum class VelocityWall { characteristics, wall_gradient };
+  VelocityWall velocity_wall = VelocityWall::characteristics;
   bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
   bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D only)
   std::vector<double> body_force;
@@ -98,6 +100,7 @@ struct CaseFile {
   double end_time = 0.0;
   double cfl = 0.0;  ///< dt = cfl dx / c_p, or
   double dt = 0.0;   ///< a fixed step (exactly one of the two is non-zero)
+  bool force = false;  ///< accept a cfl above 1 (or dt above dx / c_p): it diverges (studies)
 
   std::vector<BoundarySpec> boundaries;
 
@@ -110,7 +113,8 @@ struct CaseFile {
 
   // [damping]
   double damping = 0.0;
-  double rest_velocity = 0.0;  ///< 0: no rest criterion
+  double rest_velocity = 0.0;  ///< 0: no speed criterion
+  double rest_kinetic_energy = 0.0;  ///< J (per unit thickness in 2D); 0: no energy criterion
   double rest_after = 0.0;
   std::string rest_probe;      ///< empty: the fastest real particle
 
@@ -138,6 +142,11 @@ const std::vector<std::string>& known_output_fields();
 /// the TOML table before validation; a value is TOML (1e-3, true, "text", [1, 2]) or,
 /// failing that, a bare string. Throws CaseError.
 CaseFile load_case(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// The same from TOML text (a case written in code: the benchmark block, the tests);
+/// `name` stands for the file name in messages and the case's path.
+CaseFile load_case_text(const std::string& text, const std::string& name,
+                        const std::vector<std::string>& overrides = {});
 
 /// The edit distance used to suggest the nearest valid key.
 std::size_t edit_distance(const std::string& a, const std::string& b);

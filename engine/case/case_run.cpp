@@ -1,16 +1,12 @@
 #include "engine/case/case_run.hpp"
 
-#include "engine/bar_case.hpp"
-#include "engine/cantilever_case.hpp"
-#include "engine/lattice.hpp"
+#include "engine/case/case_build.hpp"
 #include "engine/memory_estimate.hpp"
 #include "engine/output_file.hpp"
 #include "engine/output/checkpoint.hpp"
 #include "engine/output/progress.hpp"
 #include "engine/output/vtu_writer.hpp"
 #include "engine/parallel.hpp"
-#include "engine/particle_file.hpp"
-#include "engine/region.hpp"
 #include "engine/taylor_sph.hpp"
 
 #include <fmt/core.h>
@@ -33,294 +29,6 @@ namespace tsph {
 namespace {
 
 namespace fs = std::filesystem;
-
-/// A scalar field of the exact solution, compared with the same quantity of the run.
-template <int Dim>
-struct ExactField {
-  std::string name;  ///< velocity_x, stress_xx, displacement_y
-  std::function<double(const Vector<Dim>& x0, double t)> exact;
-  std::function<double(const ParticleSet<Dim>& set, std::size_t i)> numerical;
-};
-
-template <int Dim>
-struct BuiltCase {
-  ParticleSet<Dim> real, virtual_particles;
-  std::vector<BoundaryCondition<Dim>> conditions;
-  std::vector<std::pair<std::string, std::size_t>> boundary_counts;
-  std::optional<LinearElastic<Dim>> material;
-  SolverSettings<Dim> settings;
-  double dt = 0.0, wave_speed = 0.0;
-  std::vector<ExactField<Dim>> exact;
-  std::optional<std::size_t> tip;          ///< cantilever: the tip particle on the axis
-  std::vector<std::size_t> axis;           ///< cantilever: the particles on the axis
-  double tip_exact = 0.0;
-};
-
-template <int Dim>
-Vector<Dim> to_vector(const std::vector<double>& v) {
-  Vector<Dim> out;
-  for (int d = 0; d < Dim; ++d) out[d] = v[static_cast<std::size_t>(d)];
-  return out;
-}
-
-TimeFunction make_time_function(const TimeFunctionSpec& f, double amplitude) {
-  if (f.type == "pulse") return TimeFunction::rectangular_pulse(amplitude, f.start, f.end);
-  if (f.type == "ramp") return TimeFunction::linear_ramp(amplitude, f.start, f.end);
-  if (f.type == "table") {
-    std::vector<double> values = f.values;
-    for (double& v : values) v *= amplitude;
-    return TimeFunction::table(f.times, values);
-  }
-  return TimeFunction::constant(amplitude);
-}
-
-template <int Dim>
-CantileverSettings<Dim> cantilever_settings(const CaseFile& c) {
-  CantileverSettings<Dim> s;
-  s.length = c.box_upper[0] - c.box_lower[0];
-  s.depth = c.box_upper[1] - c.box_lower[1];
-  if constexpr (Dim == 3) s.width = c.box_upper[2] - c.box_lower[2];
-  s.young_modulus = c.young_modulus;
-  s.poisson_ratio = c.poisson_ratio;
-  s.density = c.density;
-  s.plane_mode = c.plane_mode;
-  for (const auto& b : c.boundaries)
-    if (b.profile == "cantilever_shear") s.load = b.value[1];
-  return s;
-}
-
-/// Real and virtual particles of a union of boxes on one lattice (spacing dx, origin the
-/// first box's lower corner): a cell is filled if it lies in any box; real particles sit
-/// on the corners of filled cells, each with 1/2^Dim of the volume of every filled cell
-/// it touches (the trapezoidal rule of lattice.hpp, which one box reproduces); virtual
-/// particles at the centres of the filled cells.
-template <int Dim>
-void union_of_boxes(const CaseFile& c, ParticleSet<Dim>& real, ParticleSet<Dim>& virtual_particles) {
-  using Index = std::array<std::int64_t, Dim>;
-  const double dx = c.spacing;
-  const auto& origin = c.boxes[0].first;
-  auto cell_of = [&](double x, int d) { return std::llround((x - origin[static_cast<std::size_t>(d)]) / dx); };
-  std::set<Index> cells;
-  for (const auto& [lower, upper] : c.boxes) {
-    Index first, count;
-    for (int d = 0; d < Dim; ++d) {
-      first[d] = cell_of(lower[static_cast<std::size_t>(d)], d);
-      count[d] = cell_of(upper[static_cast<std::size_t>(d)], d) - first[d];
-    }
-    detail::for_each_multi_index<Dim>(count, [&](std::int64_t, const auto& index) {
-      Index cell;
-      for (int d = 0; d < Dim; ++d) cell[d] = first[d] + index[d];
-      cells.insert(cell);
-    });
-  }
-  std::map<Index, double> node_volume;  // ordered: deterministic particle order
-  const double cell_volume = std::pow(dx, Dim);
-  const double share = cell_volume / static_cast<double>(1 << Dim);
-  Index two;
-  two.fill(2);
-  for (const Index& cell : cells)
-    detail::for_each_multi_index<Dim>(two, [&](std::int64_t, const auto& corner) {
-      Index node;
-      for (int d = 0; d < Dim; ++d) node[d] = cell[d] + corner[d];
-      node_volume[node] += share;
-    });
-  auto position = [&](const Index& i, double offset) {
-    Vector<Dim> x;
-    for (int d = 0; d < Dim; ++d)
-      x[d] = origin[static_cast<std::size_t>(d)] + (static_cast<double>(i[d]) + offset) * dx;
-    return x;
-  };
-  real.resize(node_volume.size());
-  std::size_t k = 0;
-  for (const auto& [node, volume] : node_volume) detail::fill_particle(real, k++, position(node, 0.0), volume, c.density);
-  virtual_particles.resize(cells.size());
-  k = 0;
-  for (const Index& cell : cells) detail::fill_particle(virtual_particles, k++, position(cell, 0.5), cell_volume, c.density);
-}
-
-template <int Dim>
-BuiltCase<Dim> build_case(const CaseFile& c) {
-  using Vec = Vector<Dim>;
-  BuiltCase<Dim> b;
-  const double dx = c.spacing;
-  try {
-    if (!c.box_lower.empty()) {
-      LatticeBox<Dim> box;
-      box.spacing = dx;
-      box.lower = to_vector<Dim>(c.box_lower);
-      for (int d = 0; d < Dim; ++d)
-        box.node_count[d] = std::llround((c.box_upper[d] - c.box_lower[d]) / dx) + 1;
-      b.real = make_real_lattice(box, c.density);
-      b.virtual_particles = make_virtual_lattice(box, c.density);
-    } else if (!c.boxes.empty()) {
-      union_of_boxes(c, b.real, b.virtual_particles);
-    } else {
-      b.real = read_particle_csv<Dim>(c.particle_file, dx, c.density);
-      b.virtual_particles = make_virtual_particles(b.real, dx, c.density);
-    }
-  } catch (const std::invalid_argument& e) {
-    throw CaseError({c.path + ": geometry: " + e.what()});
-  }
-  if (b.virtual_particles.size() == 0)
-    throw CaseError({c.path + ": geometry: no lattice cell of spacing dx = " + format_number(dx) +
-                     " is filled by real particles, so there are no virtual particles: check "
-                     "geometry.spacing against the particle file"});
-
-  // Initial conditions: v = v0 + G x0 (G row by row), uniform stress, added to the
-  // particle file's values.
-  const Vec v0 = to_vector<Dim>(c.initial_velocity);
-  Matrix<Dim> gradient;
-  for (int r = 0; r < Dim; ++r)
-    for (int k = 0; k < Dim; ++k) gradient(r, k) = c.velocity_gradient[static_cast<std::size_t>(r * Dim + k)];
-  for (ParticleSet<Dim>* set : {&b.real, &b.virtual_particles})
-    for (std::size_t i = 0; i < set->size(); ++i) {
-      Vec x0;
-      for (int d = 0; d < Dim; ++d) x0[d] = set->initial_position[d][i];
-      Vec v = v0 + gradient * x0;
-      if (c.initial_profile == "sine") {  // a standing or travelling wave's velocity
-        const Vec n = to_vector<Dim>(c.wave_direction).normalized();
-        v += to_vector<Dim>(c.wave_amplitude) * std::sin(2.0 * M_PI * x0.dot(n) / c.wavelength + c.wave_phase);
-      }
-      for (int d = 0; d < Dim; ++d) set->velocity[d][i] += v[d];
-      for (int s = 0; s < stress_component_count<Dim>; ++s)
-        set->stress[s][i] += c.initial_stress[static_cast<std::size_t>(s)];
-    }
-
-  // Boundary conditions, assigned in order (later ones win where regions overlap).
-  const double tolerance = 1e-6 * dx;
-  std::vector<std::string> errors;
-  for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
-    const BoundarySpec& s = c.boundaries[k];
-    std::array<TimeFunction, Dim> components = BoundaryCondition<Dim>::filled(TimeFunction::constant(0.0));
-    for (int d = 0; d < Dim; ++d)
-      components[static_cast<std::size_t>(d)] = make_time_function(s.time, s.value[static_cast<std::size_t>(d)]);
-    typename BoundaryCondition<Dim>::Profile profile = BoundaryCondition<Dim>::uniform();
-    if constexpr (Dim >= 2) {
-      if (s.profile == "cantilever_shear") {
-        // Seed eq. (6): tau_xy = P / (2 I) (D^2 / 4 - y^2) over the end face; value = P.
-        const auto cs = cantilever_settings<Dim>(c);
-        const double centre = 0.5 * (c.box_lower[1] + c.box_upper[1]);
-        const double scale = 1.0 / (2.0 * cs.second_moment()), quarter = 0.25 * cs.depth * cs.depth;
-        profile = [=](const Vec& x) {
-          const double y = x[1] - centre;
-          return Vec(Vec::Ones() * (scale * (quarter - y * y)));
-        };
-      }
-    }
-    if (s.type == "fixed") b.conditions.push_back(BoundaryCondition<Dim>::fixed(s.name));
-    else if (s.type == "free") b.conditions.push_back(BoundaryCondition<Dim>::free(s.name));
-    else if (s.type == "velocity")
-      b.conditions.push_back(BoundaryCondition<Dim>::velocity(components, s.name, profile));
-    else
-      b.conditions.push_back(BoundaryCondition<Dim>::traction(components, s.name, profile));
-    std::string missed;
-    for (const RegionSpec& spec : s.regions) {
-      Region<Dim> region;
-      if (spec.type == "box")
-        region = Region<Dim>::box(s.name, to_vector<Dim>(spec.lower), to_vector<Dim>(spec.upper));
-      else if (spec.type == "half_space")
-        region = Region<Dim>::half_space(s.name, to_vector<Dim>(spec.point), to_vector<Dim>(spec.normal));
-      else if (spec.type == "group")
-        region = Region<Dim>::of_group(s.name, static_cast<std::int32_t>(spec.group));
-      else  // all: a half-space that holds every particle
-        region = Region<Dim>::half_space(s.name, Vec::Constant(-1e300), Vec::Unit(0));
-      try {
-        assign_boundary(b.real, region, static_cast<std::int32_t>(k), tolerance);
-      } catch (const std::invalid_argument& e) {
-        missed = e.what();
-      }
-    }
-    if (!missed.empty()) errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + s.name + "': " + missed);
-  }
-  if (!errors.empty()) throw CaseError(errors);
-  for (std::size_t k = 0; k < c.boundaries.size(); ++k)
-    b.boundary_counts.emplace_back(
-        c.boundaries[k].name,
-        static_cast<std::size_t>(std::count(b.real.boundary.begin(), b.real.boundary.end(), static_cast<std::int32_t>(k))));
-
-  b.settings.smoothing_length = c.alpha * dx;
-  b.settings.kernel = c.kernel;
-  b.settings.interpolation = c.interpolation;
-  b.settings.kinematics = c.kinematics;
-  b.settings.body_force = to_vector<Dim>(c.body_force);
-  b.settings.damping = c.damping;
-  b.settings.hourglass_coefficient = c.hourglass;
-  b.settings.hourglass_stiffness = c.hourglass_stiffness;
-  b.settings.velocity_wall = c.wall_gradient ? SolverSettings<Dim>::VelocityWall::wall_gradient
-                                             : SolverSettings<Dim>::VelocityWall::characteristics;
-  b.settings.surface_extrapolation = c.surface_extrapolation;
-  b.settings.free_edge_uniaxial = c.free_edge_uniaxial;
-  b.settings.neighbor_search = c.neighbor_search;
-  b.settings.transpose_lists = c.transpose_lists;
-  b.settings.neighbor_skin = c.neighbor_skin;
-  b.settings.keep_virtual_fields = c.output_virtual;  // its frames write them (snapshot)
-  b.material.emplace(c.young_modulus, c.poisson_ratio, c.density,
-                     Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
-  b.wave_speed = b.material->p_wave_speed(c.density);
-  b.dt = c.dt > 0.0 ? c.dt : c.cfl * dx / b.wave_speed;
-  if (b.dt > dx / b.wave_speed * (1.0 + 1e-12))
-    throw CaseError({c.path + ": time.dt = " + format_number(c.dt) +
-                     " is invalid: exceeds the stability limit dx / c_p = " + format_number(dx / b.wave_speed) +
-                     " s (CFL 1); use a smaller dt or time.cfl"});
-
-  // Exact solutions, in material coordinates relative to the box.
-  if (c.exact == "bar") {
-    if constexpr (Dim == 1) {
-      BarCaseSettings s;
-      s.length = c.box_upper[0] - c.box_lower[0];
-      s.young_modulus = c.young_modulus;
-      s.density = c.density;
-      s.amplitude = c.bar_amplitude;
-      s.pulse_duration = c.bar_pulse_duration;
-      s.left_end = c.bar_left_end == "free" ? BarEnd::free : BarEnd::fixed;
-      const auto exact = std::make_shared<BarExactSolution>(s);
-      const double lower = c.box_lower[0];
-      b.exact.push_back({"velocity_x",
-                         [exact, lower](const Vec& x, double t) { return exact->velocity(x[0] - lower, t); },
-                         [](const ParticleSet<Dim>& p, std::size_t i) { return p.velocity[0][i]; }});
-      b.exact.push_back({"stress_xx",
-                         [exact, lower](const Vec& x, double t) { return exact->stress(x[0] - lower, t); },
-                         [](const ParticleSet<Dim>& p, std::size_t i) { return p.stress[0][i]; }});
-    }
-  } else if (c.exact == "cantilever") {
-    if constexpr (Dim >= 2) {
-      const auto cs = cantilever_settings<Dim>(c);
-      const auto exact = std::make_shared<CantileverExact<Dim>>(cs);
-      Vec centre;
-      for (int d = 0; d < Dim; ++d) centre[d] = 0.5 * (c.box_lower[d] + c.box_upper[d]);
-      centre[0] = c.box_lower[0];
-      b.exact.push_back({"displacement_y",
-                         [exact, centre](const Vec& x, double) { return exact->deflection(x[0] - centre[0], x[1] - centre[1]); },
-                         [](const ParticleSet<Dim>& p, std::size_t i) { return p.displacement[1][i]; }});
-      b.tip_exact = exact->tip_deflection();
-      for (std::size_t i = 0; i < b.real.size(); ++i) {
-        bool on_axis = true;
-        for (int d = 1; d < Dim; ++d) on_axis = on_axis && std::abs(b.real.initial_position[d][i] - centre[d]) < tolerance;
-        if (!on_axis) continue;
-        b.axis.push_back(i);
-        if (std::abs(b.real.initial_position[0][i] - c.box_upper[0]) < tolerance) b.tip = i;
-      }
-      if (!b.tip)
-        throw CaseError({c.path + ": exact.solution = 'cantilever' needs a real particle on the beam axis "
-                         "at the tip: choose geometry.spacing so that the depth holds an even number of spacings"});
-    }
-  }
-  return b;
-}
-
-/// Time steps to reach the end, landing on every output time (as the run does).
-std::int64_t count_steps(const CaseFile& c, double dt) {
-  std::int64_t steps = 0;
-  double t = 0.0;
-  std::vector<double> targets = c.output_times;
-  targets.push_back(c.end_time);
-  for (double target : targets) {
-    if (target <= t) continue;
-    steps += static_cast<std::int64_t>(std::ceil((target - t) / dt * (1.0 - 1e-9)));
-    t = target;
-  }
-  return steps;
-}
 
 template <int Dim>
 CaseOverview inspect(const CaseFile& c) {
@@ -430,8 +138,8 @@ output::VtuFrame snapshot(const ParticleSet<Dim>& p, const CaseFile& c, const Bu
   }
   if (c.has_field("density")) f.arrays.push_back({"density", 1, p.density, {}, false});
   if (c.has_field("id")) f.arrays.push_back({"id", 1, {}, p.id, true});
-  if (b && c.has_field("exact"))
-    for (const auto& e : b->exact) {
+  if (b && b->exact && c.has_field("exact"))
+    for (const auto& e : b->exact->fields()) {
       output::VtuArray a{"exact_" + e.name, 1, std::vector<double>(n), {}, false};
       for (std::size_t i = 0; i < n; ++i) {
         Vector<Dim> x0;
@@ -560,7 +268,7 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
     errors += fmt::format("{}\n    {{\"time\": {}, \"name\": {}, \"value\": {}}}", errors.empty() ? "" : ",",
                           json_number(e.time), json_string(e.name), json_number(e.value));
   std::string text = fmt::format(
-      "{{\n  \"program\": \"tsph\",\n  \"version\": {},\n  \"case\": {},\n  \"title\": {},\n"
+      "{{\n  \"schema\": \"tsph.summary/1\",\n  \"program\": \"tsph\",\n  \"version\": {},\n  \"case\": {},\n  \"title\": {},\n"
       "  \"overrides\": [{}],\n  \"restart\": {},\n  \"last_checkpoint\": {},\n  \"status\": {},\n  \"message\": {},\n"
       "  \"resolved\": {{\"dimension\": {}, \"real_particles\": {}, \"virtual_particles\": {}, "
       "\"spacing\": {}, \"smoothing_length\": {}, \"alpha\": {}, \"kernel\": {}, \"interpolation\": {}, "
@@ -581,7 +289,7 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       json_string(Dim == 2 ? (c.plane_mode == PlaneMode::plane_strain ? "strain" : "stress") : "none"),
       json_number(b.wave_speed), json_number(b.dt), json_number(b.dt * b.wave_speed / c.spacing),
       json_number(c.end_time), json_number(c.damping), json_number(c.hourglass),
-      json_number(c.hourglass_stiffness), json_string(c.wall_gradient ? "wall_gradient" : "characteristics"),
+      json_number(c.hourglass_stiffness), json_string(c.velocity_wall == CaseFile::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics"),
       c.surface_extrapolation ? "true" : "false", c.free_edge_uniaxial ? "true" : "false",
       json_number(c.neighbor_skin),
       thread_count(),
@@ -670,31 +378,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     report.last_checkpoint = path.string();
   };
   auto errors_at = [&](double t) {
-    const auto& r = solver->real();
-    for (const auto& e : b.exact) {
-      std::vector<double> numerical(r.size()), exact(r.size());
-      for (std::size_t i = 0; i < r.size(); ++i) {
-        Vector<Dim> x0;
-        for (int d = 0; d < Dim; ++d) x0[d] = r.initial_position[d][i];
-        numerical[i] = e.numerical(r, i);
-        exact[i] = e.exact(x0, t);
-      }
-      report.errors.push_back({t, e.name + "_l2_percent", relative_l2_percent(numerical, exact)});
-    }
-    if (b.tip) {
-      const double tip = r.displacement[1][*b.tip];
-      report.errors.push_back({t, "tip_displacement_y", tip});
-      report.errors.push_back({t, "tip_displacement_y_exact", b.tip_exact});
-      report.errors.push_back({t, "tip_error_percent", 100.0 * std::abs(tip - b.tip_exact) / std::abs(b.tip_exact)});
-      std::vector<double> numerical, exact;
-      for (std::size_t i : b.axis) {
-        Vector<Dim> x0;
-        for (int d = 0; d < Dim; ++d) x0[d] = r.initial_position[d][i];
-        numerical.push_back(r.displacement[1][i]);
-        exact.push_back(b.exact.front().exact(x0, t));
-      }
-      report.errors.push_back({t, "axis_displacement_y_l2_percent", relative_l2_percent(numerical, exact)});
-    }
+    if (b.exact) b.exact->errors(solver->real(), t, report.errors);
   };
   auto frame = [&] {
     const double t = solver->time();
@@ -704,6 +388,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     const std::string real_name = fmt::format("particles_{:06d}.vtu", k);
     real_series.push_back({t, real_name});
     auto real_frame = std::make_shared<output::VtuFrame>(snapshot(solver->real(), c, &b, t));
+    if (o.on_frame) o.on_frame(*real_frame, t);
     std::shared_ptr<output::VtuFrame> virtual_frame;
     std::string virtual_name;
     if (c.output_virtual) {
@@ -724,6 +409,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
 
   output::ProgressLine progress(o.progress, o.quiet, c.end_time, report.real_particles);
   const double dt = b.dt;
+  const bool resting = c.rest_velocity > 0.0 || c.rest_kinetic_energy > 0.0;
   std::size_t next_time = 0;
   while (next_time < c.output_times.size() && solver->time() >= c.output_times[next_time] - 1e-9 * dt) ++next_time;
   std::string message;
@@ -756,7 +442,11 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
       }
       if (c.output_every > 0 && step % c.output_every == 0) write = true;
       if (step % c.probe_every == 0 || write) record_probes(probes, solver->real(), solver->time());
-      if (c.rest_velocity > 0.0 && solver->time() >= c.rest_after) {
+      if (o.on_step) o.on_step({solver->time(), step, solver->kinetic_energy(), solver->strain_energy()});
+      if (resting && solver->time() >= c.rest_after) {
+        // At rest: the speed (of the rest probe, else the fastest real particle) below
+        // damping.rest_velocity and the kinetic energy below damping.rest_kinetic_energy,
+        // each where given (the energy, a sum over the particles, only once the speed is).
         const auto& r = solver->real();
         double speed = 0.0;
         auto speed_of = [&](std::size_t i) {
@@ -767,9 +457,14 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
         if (rest_index) speed = speed_of(*rest_index);
         else
           for (std::size_t i = 0; i < r.size(); ++i) speed = std::max(speed, speed_of(i));
-        if (speed < c.rest_velocity) {
+        if ((c.rest_velocity <= 0.0 || speed < c.rest_velocity) &&
+            (c.rest_kinetic_energy <= 0.0 || solver->kinetic_energy() < c.rest_kinetic_energy)) {
           report.status = RunReport::Status::at_rest;
-          message = fmt::format("at rest at t = {} s: speed {:.3e} m/s < rest_velocity", solver->time(), speed);
+          message = c.rest_kinetic_energy > 0.0
+                        ? fmt::format("at rest at t = {} s: speed {:.3e} m/s < rest_velocity, kinetic energy "
+                                      "{:.3e} J < rest_kinetic_energy",
+                                      solver->time(), speed, solver->kinetic_energy())
+                        : fmt::format("at rest at t = {} s: speed {:.3e} m/s < rest_velocity", solver->time(), speed);
           break;
         }
       }
@@ -783,7 +478,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
       }
     }
   }
-  if (report.status == RunReport::Status::finished && c.rest_velocity > 0.0) {
+  if (report.status == RunReport::Status::finished && resting) {
     report.status = RunReport::Status::not_at_rest;
     message = fmt::format("not at rest by time.end = {} s (damping.rest_velocity = {} m/s)", c.end_time,
                           c.rest_velocity);
@@ -846,9 +541,7 @@ ResourceEstimate estimate(const CaseFile& c) {
     e.real_particles = std::max(0.0, lines - 1.0);
     e.virtual_particles = e.real_particles;
   }
-  const LinearElastic<Dim> material(c.young_modulus, c.poisson_ratio, c.density,
-                                    Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
-  const double dt = c.dt > 0.0 ? c.dt : c.cfl * dx / material.p_wave_speed(c.density);
+  const double dt = case_time_step(c);
   // Steps to the end time, landing on every output time (count_steps, in double).
   double t = 0.0;
   std::vector<double> targets = c.output_times;

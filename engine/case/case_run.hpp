@@ -5,8 +5,11 @@
 #pragma once
 
 #include "engine/case/case_file.hpp"
+#include "engine/output/vtu_writer.hpp"
+#include "engine/validation/exact_solution.hpp"
 
 #include <csignal>
+#include <functional>
 #include <cstdint>
 #include <cstdio>
 #include <optional>
@@ -43,12 +46,16 @@ struct RunOptions {
   std::string restart;
   /// Set by a signal handler: the run stops after the current step, writing its output.
   const volatile std::sig_atomic_t* stop_requested = nullptr;
-};
-
-struct ErrorRecord {
-  double time = 0.0;
-  std::string name;  ///< e.g. velocity_l2_percent, tip_error_percent
-  double value = 0.0;
+  /// Called with every frame of the real particles as it is written (the fields the case
+  /// lists, exact_* included), and its time: what `tsph table1` and the tests read.
+  std::function<void(const output::VtuFrame& frame, double time)> on_frame;
+  /// Called after every step with its energies (computed only when this is set).
+  struct StepRecord {
+    double time = 0.0;
+    std::int64_t step = 0;
+    double kinetic_energy = 0.0, strain_energy = 0.0;
+  };
+  std::function<void(const StepRecord&)> on_step;
 };
 
 struct RunReport {

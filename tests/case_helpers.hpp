@@ -1,0 +1,100 @@
+// Running a shipped case (tools/cases/) with overrides through the one case pipeline,
+// as `tsph run` does, and reading back what the tests check: the frames at the output
+// times, the error figures and the energies after every step.
+#pragma once
+
+#include "engine/case/case_file.hpp"
+#include "engine/case/case_run.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace tsph::testing_cases {
+
+/// A frame of the real particles: positions (x of each point), and the listed fields.
+struct Frame {
+  double time = 0.0;
+  std::vector<double> x, y;  ///< current positions along x and y
+  std::vector<double> velocity_x, velocity_y, stress_xx, displacement_y;
+};
+
+struct CaseRun {
+  CaseFile file;
+  RunReport report;
+  std::vector<Frame> frames;  ///< every frame written, t = 0 first
+  std::vector<RunOptions::StepRecord> steps;  ///< if energies were asked for
+  /// The frame at time t (fails the test if there is none).
+  const Frame& at(double t) const {
+    for (const auto& f : frames)
+      if (f.time == t) return f;
+    ADD_FAILURE() << "no frame at t = " << t;
+    return frames.front();
+  }
+  /// The error figure `name` at time t (NaN if there is none).
+  double error(const std::string& name, double t) const {
+    for (const auto& e : report.errors)
+      if (e.name == name && e.time == t) return e.value;
+    return std::nan("");
+  }
+  /// The figure `name` at the end of the run.
+  double final_error(const std::string& name) const { return error(name, report.time); }
+};
+
+inline std::string shipped_case(const std::string& name) {
+  return std::string(TSPH_SOURCE_DIR) + "/tools/cases/" + name;
+}
+
+/// A fresh output directory under the test's temporary directory.
+inline std::string fresh_output_directory() {
+  static std::atomic<int> counter{0};
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) /
+                                    ("tsph_" + std::string(info ? info->name() : "run") + "_" +
+                                     std::to_string(counter++));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+/// Runs a case file with overrides (--set), keeping every frame's fields.
+inline CaseRun run_case_file(const std::string& path, const std::vector<std::string>& overrides,
+                             bool record_energy = false) {
+  CaseRun run;
+  run.file = load_case(path, overrides);
+  RunOptions options;
+  options.out_dir = fresh_output_directory();
+  options.quiet = true;
+  options.overrides = overrides;
+  options.on_frame = [&run](const output::VtuFrame& f, double t) {
+    Frame frame;
+    frame.time = t;
+    for (std::size_t i = 0; i < f.point_count; ++i) {
+      frame.x.push_back(f.points[3 * i]);
+      frame.y.push_back(f.points[3 * i + 1]);
+    }
+    for (const auto& a : f.arrays) {
+      for (std::size_t i = 0; i < f.point_count; ++i) {
+        if (a.name == "velocity") {
+          frame.velocity_x.push_back(a.float64[3 * i]);
+          frame.velocity_y.push_back(a.float64[3 * i + 1]);
+        } else if (a.name == "stress") {
+          frame.stress_xx.push_back(a.float64[6 * i]);
+        } else if (a.name == "displacement") {
+          frame.displacement_y.push_back(a.float64[3 * i + 1]);
+        }
+      }
+    }
+    run.frames.push_back(std::move(frame));
+  };
+  if (record_energy) options.on_step = [&run](const RunOptions::StepRecord& s) { run.steps.push_back(s); };
+  run.report = run_case(run.file, options);
+  std::filesystem::remove_all(options.out_dir);
+  return run;
+}
+
+}  // namespace tsph::testing_cases
