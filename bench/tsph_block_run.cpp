@@ -168,12 +168,16 @@ int main(int argc, char** argv) {
       if (!(number >= 1.0 && number <= 1024.0)) usage_error("threads = " + value + " is invalid: must lie in [1, 1024]");
       o.threads = static_cast<int>(number);
     } else if (key == "--alpha") {
-      if (!(number >= 0.5 && number <= 3.0)) usage_error("alpha = " + value + " is invalid: must lie in [0.5, 3]");
-      o.alpha = number;
+      o.alpha = number;  // its range is the case file's method.alpha (checked where the block is built)
     } else {
       usage_error("unknown option " + key);
     }
   }
   set_thread_count(o.threads);
-  return o.dim == 2 ? run<2>(o) : run<3>(o);
+  try {
+    return o.dim == 2 ? run<2>(o) : run<3>(o);
+  } catch (const CaseError& e) {  // the block's case refused (method.alpha out of range)
+    for (const auto& m : e.messages()) std::fprintf(stderr, "tsph-block-run: error: %s\n", m.c_str());
+    return 2;
+  }
 }

@@ -45,7 +45,7 @@ std::string spacing_for(int nodes_x) {
   return text;
 }
 
-/// tsph-cantilever's rest rule (kinetic_tolerance): the kinetic energy below this
+/// The cantilever's rest rule by energy: the kinetic energy below this
 /// fraction of the load's work on the exact tip deflection, P |u_tip|.
 std::string kinetic_rest(double tolerance, PlaneMode mode = PlaneMode::plane_stress) {
   char text[96];
@@ -292,7 +292,7 @@ TEST_P(CantileverPermutation, RenumberedParticlesRunAsTheLattice) {
   const bool moving = kinematics == Kinematics::updated_lagrangian;
   // The shipped case's options: wall clamp, stiffness 0.05, extrapolation.
   const CaseFile c = load_case(testing_cases::shipped_case("cantilever_2d.toml"),
-                               {"geometry.spacing=0.025", std::string("method.kinematics=") + to_string(kinematics)});
+                               {"geometry.spacing=0.025", "method.kinematics=" + std::string(to_string(kinematics))});
   BuiltCase<2> built = build_case<2>(c);
   const std::size_t tip = tip_of(built);
   const ParticleSet<2> real = built.real;

@@ -4,7 +4,8 @@ time, from a `tsph run tools/cases/bar.toml` output directory (seed section 4.1)
 
     tools/plot_bar.py OUT_DIR [OUT_DIR ...] [-o bar_profiles.png]
 
-Several directories (e.g. alpha = 0.6, 1.2, 1.6) are drawn on the same panels.
+Several directories (e.g. alpha = 0.6, 1.2, 1.6: `tsph table1` writes them as
+out/bar-table1/alpha*) are drawn on the same panels.
 """
 import argparse
 import json

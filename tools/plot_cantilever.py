@@ -3,9 +3,10 @@
 
     tools/plot_cantilever.py OUT_DIR [OUT_DIR ...] [-o fig2.png]
 
-Each OUT_DIR is a tsph-cantilever output directory (axis.csv, summary.json) or a
-`tsph run` output directory of a cantilever case (particles.pvd, summary.json: the last
-frame's particles on the axis y = 0, against its exact_displacement_y field).
+Each OUT_DIR is a `tsph run` output directory of a cantilever case (particles.pvd,
+summary.json: the last frame's particles on the axis y = 0, against its
+exact_displacement_y field), e.g. a run directory of `tsph converge`; an axis.csv beside
+its summary.json (the layout of the former tsph-cantilever) is read as well.
 """
 import argparse
 import json

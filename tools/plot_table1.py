@@ -2,10 +2,8 @@
 """The seed's Table 1 error study from `tsph run tools/cases/bar.toml` runs at several
 alpha: L2 velocity error against alpha at each output time, beside the paper's values.
 
-    for a in 0.6 1.2 1.6; do
-      build/tools/tsph run tools/cases/bar.toml --set method.alpha=$a --out out/bar-alpha$a
-    done
-    tools/plot_table1.py out/bar-alpha0.6 out/bar-alpha1.2 out/bar-alpha1.6 -o table1.png
+    build/tools/tsph table1 --out out/bar-table1      # or tools/run.sh
+    tools/plot_table1.py out/bar-table1/alpha* -o table1.png
 
 Prints the table too (alpha, then the error in percent at each output time).
 """

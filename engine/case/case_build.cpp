@@ -157,9 +157,9 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
       Vec x0;
       for (int d = 0; d < Dim; ++d) x0[d] = set->initial_position[d][i];
       Vec v = v0 + gradient * x0;
-      if (c.initial_profile == "sine") {  // a standing or travelling wave's velocity
-        const Vec n = to_vector<Dim>(c.wave_direction).normalized();
-        v += to_vector<Dim>(c.wave_amplitude) * std::sin(2.0 * M_PI * x0.dot(n) / c.wavelength + c.wave_phase);
+      for (const VelocityWave& w : c.velocity_waves) {  // a standing or travelling wave's velocity
+        const Vec n = to_vector<Dim>(w.direction).normalized();
+        v += to_vector<Dim>(w.amplitude) * std::sin(2.0 * M_PI * x0.dot(n) / w.wavelength + w.phase);
       }
       for (int d = 0; d < Dim; ++d) set->velocity[d][i] += v[d];
       for (int s = 0; s < stress_component_count<Dim>; ++s)

@@ -636,19 +636,27 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.initial_stress = i.numbers("stress", false, stress_count,
                                  dim == 2 ? "xx, yy, xy, zz (Pa)" : "xx, yy, zz, xy, yz, zx (Pa)")
                            .value_or(std::vector<double>(stress_count, 0.0));
-    Table profile = i.table("profile", false);
-    if (profile.present()) {
-      c.initial_profile = profile.text("type", true, {"sine"}).value_or("");
-      c.wave_amplitude = profile.numbers("amplitude", true, dim, "the velocity vector at the crests, m/s")
-                             .value_or(std::vector<double>(dim, 0.0));
-      c.wave_direction = profile.numbers("direction", true, dim, "along which the profile varies")
-                             .value_or(std::vector<double>(dim, 0.0));
-      if (c.wave_direction.size() == dim &&
-          std::all_of(c.wave_direction.begin(), c.wave_direction.end(), [](double v) { return v == 0.0; }))
+    auto read_profile = [&](Table profile) {
+      VelocityWave w;
+      profile.text("type", true, {"sine"});
+      w.amplitude = profile.numbers("amplitude", true, dim, "the velocity vector at the crests, m/s")
+                        .value_or(std::vector<double>(dim, 0.0));
+      w.direction = profile.numbers("direction", true, dim, "along which the profile varies")
+                        .value_or(std::vector<double>(dim, 0.0));
+      if (w.direction.size() == dim &&
+          std::all_of(w.direction.begin(), w.direction.end(), [](double v) { return v == 0.0; }))
         context.invalid(profile.get("direction", false, ""), profile.path("direction"), "must be non-zero");
-      c.wavelength = profile.real("wavelength", true, "2.0", positive, kPositive + " (m)").value_or(1.0);
-      c.wave_phase = profile.real("phase", false, "1.5707963267948966").value_or(0.0);
+      w.wavelength = profile.real("wavelength", true, "2.0", positive, kPositive + " (m)").value_or(1.0);
+      w.phase = profile.real("phase", false, "1.5707963267948966").value_or(0.0);
       profile.finish();
+      c.velocity_waves.push_back(std::move(w));
+    };
+    if (i.has("profile") && i.get("profile", false, "")->is_array()) {
+      // Several profiles ([[initial.profile]]): their sum.
+      for (Table profile : i.tables("profile")) read_profile(profile);
+    } else {
+      Table profile = i.table("profile", false);
+      if (profile.present()) read_profile(profile);
     }
     i.finish();
   }

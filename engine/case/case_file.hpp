@@ -59,6 +59,11 @@ struct ProbeSpec {
   std::int64_t particle = -1;     ///< or a particle id
 };
 
+struct VelocityWave {
+  std::vector<double> amplitude, direction;
+  double wavelength = 1.0, phase = 0.0;
+};
+
 struct CaseFile {
   std::string path;       ///< the case file as given
   std::string directory;  ///< its directory (particle files are relative to it)
@@ -106,10 +111,9 @@ struct CaseFile {
 
   // [initial]
   std::vector<double> initial_velocity, velocity_gradient, initial_stress;
-  /// [initial.profile] type = "sine": v += amplitude sin(2 pi (x0 . direction) / wavelength + phase).
-  std::string initial_profile;  ///< "" or sine
-  std::vector<double> wave_amplitude, wave_direction;
-  double wavelength = 0.0, wave_phase = 0.0;
+  /// [initial.profile] type = "sine" (or an array [[initial.profile]]: their sum):
+  /// v += amplitude sin(2 pi (x0 . direction / |direction|) / wavelength + phase).
+  std::vector<VelocityWave> velocity_waves;
 
   // [damping]
   double damping = 0.0;
