@@ -38,7 +38,7 @@ expect 2 "time.cfl = 1.2 is invalid: must lie in \(0, 1\].*time.force = true" "$
 expect 3 "diverged: solver: the solution diverged at step [0-9]+ \(t = .* s\): real particle [0-9]+ at \(.*\) .*likely cause: the time step: CFL = dt c_p / dx = 1.5" \
   "${bar[@]}" --set time.cfl=1.5 --set time.force=true
 expect 2 "method.kernel = 'gauss' is invalid: must be one of: cubic_spline, wendland_c2, quintic_spline" "${bar[@]}" --set method.kernel=gauss
-expect 2 "material.E = 0 is invalid: must be a positive" "${bar[@]}" --set material.E=0
+expect 2 "material.E = 0 is invalid: must be positive" "${bar[@]}" --set material.E=0
 expect 2 "material.rho = -5 is invalid" "${bar[@]}" --set material.rho=-5
 expect 2 "output.times = .* is invalid: each must lie in \(0, time.end = 0.005\]" "${bar[@]}" --set time.end=0.005 \
   --set "output.times=[0.001, 0.009]"

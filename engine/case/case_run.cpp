@@ -409,7 +409,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
 
   output::ProgressLine progress(o.progress, o.quiet, c.end_time, report.real_particles);
   const double dt = b.dt;
-  const bool resting = c.rest_velocity > 0.0 || c.rest_kinetic_energy > 0.0;
+  const bool resting = c.rest_velocity > 0.0;  // damping.rest_velocity = 0: no rest criterion
   std::size_t next_time = 0;
   while (next_time < c.output_times.size() && solver->time() >= c.output_times[next_time] - 1e-9 * dt) ++next_time;
   std::string message;
@@ -445,8 +445,8 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
       if (o.on_step) o.on_step({solver->time(), step, solver->kinetic_energy(), solver->strain_energy()});
       if (resting && solver->time() >= c.rest_after) {
         // At rest: the speed (of the rest probe, else the fastest real particle) below
-        // damping.rest_velocity and the kinetic energy below damping.rest_kinetic_energy,
-        // each where given (the energy, a sum over the particles, only once the speed is).
+        // damping.rest_velocity and, where given, the kinetic energy below
+        // damping.rest_kinetic_energy (a sum over the particles: only once the speed is).
         const auto& r = solver->real();
         double speed = 0.0;
         auto speed_of = [&](std::size_t i) {
@@ -457,7 +457,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
         if (rest_index) speed = speed_of(*rest_index);
         else
           for (std::size_t i = 0; i < r.size(); ++i) speed = std::max(speed, speed_of(i));
-        if ((c.rest_velocity <= 0.0 || speed < c.rest_velocity) &&
+        if (speed < c.rest_velocity &&
             (c.rest_kinetic_energy <= 0.0 || solver->kinetic_energy() < c.rest_kinetic_energy)) {
           report.status = RunReport::Status::at_rest;
           message = c.rest_kinetic_energy > 0.0
