@@ -234,15 +234,21 @@ TEST(Cantilever, WithoutSurfaceExtrapolationTheOuterFibresAreSoft) {
 }
 
 // Updated Lagrangian (issue 3). The virtual particles are kept at their material
-// points (SolverSettings::VirtualMotion::material_point): 41 x 5 at rest at 0.74 s,
-// +0.72 % at the tip (small strain +2.33 %; the large-displacement effect at this load
-// is about -0.2 %).
+// points (SolverSettings::VirtualMotion::material_point): 41 x 5, +0.72 % at the tip
+// (small strain +2.33 %; the large-displacement effect at this load is about -0.2 %),
+// measured at 0.74 s. That "rest" was the former tsph-cantilever's rule, |v_y| of the tip
+// alone, met at a zero crossing: the tip keeps an oscillation of about 1e-4 m/s in v_y
+// and a drift of -5e-5 m/s in v_x to 3 s (main's `tsph run` of the same case says "not at
+// rest" too; docs/known-problems.md). So the deflection is checked at t = 1 s, past the
+// ramp and the first-mode decay, with the same bounds.
 TEST(Cantilever, UpdatedLagrangianMatchesTheBeam) {
-  const CaseRun r = run_beam(41, true, 1e-5, {"method.kinematics=updated_lagrangian"});
-  ASSERT_TRUE(at_rest(r)) << "t = " << r.report.time;
+  const CaseRun r = run_beam(41, true, 1e-5, {"method.kinematics=updated_lagrangian", "time.end=1.0",
+                                              "damping.rest_velocity=0"});
+  ASSERT_EQ(r.report.status, RunReport::Status::finished);
+  ASSERT_EQ(r.report.time, 1.0);
   EXPECT_LT(r.final_error("tip_error_percent"), 2.0) << "tip " << r.final_error("tip_displacement_y");
   EXPECT_LT(r.final_error("axis_displacement_y_l2_percent"), 3.0);
-  EXPECT_LT(r.report.time, 1.0);
+  EXPECT_GT(r.final_error("tip_displacement_y"), r.final_error("tip_displacement_y_exact"));  // +0.7 %, not stiff
 }
 
 // Renumbering the particles carries every per-particle state of the stepper with them
