@@ -141,8 +141,11 @@ int run_converge(const ConvergeOptions& o) {
   auto good = [](const SweepRun& r) { return r.status == "finished" || r.status == "at_rest"; };
   std::string header = fmt::format("{:>12} {:>12} {:>8} {:>10}", last_part, "status", "steps", "t (s)");
   std::string csv = key + ",status,steps,time";
+  std::vector<std::size_t> widths;  // of each error column
   for (const auto& name : names) {
-    header += fmt::format(" {:>14} {:>6}", name.substr(0, name.size() - 8) + " %", "rate");
+    const std::string label = name.substr(0, name.size() - 8) + " %";
+    widths.push_back(std::max<std::size_t>(10, label.size()));
+    header += fmt::format(" {:>{}} {:>6}", label, widths.back(), "rate");
     csv += "," + name + ",rate_" + name.substr(0, name.size() - 8);
   }
   fmt::print("{}: {} over {}\n{}\n", o.case_path, key, o.sweep.substr(equals + 1), header);
@@ -153,7 +156,8 @@ int run_converge(const ConvergeOptions& o) {
     std::string line = fmt::format("{:>12} {:>12} {:>8} {:>10.4g}", r.value, r.status, r.report.steps, r.report.time);
     std::string row = fmt::format("{},{},{},{:.17g}", r.value, r.status, r.report.steps, r.report.time);
     std::string json_errors;
-    for (const auto& name : names) {
+    for (std::size_t n = 0; n < names.size(); ++n) {
+      const std::string& name = names[n];
       const double e = value_of(r, name);
       std::string rate = "-";
       if (k > 0 && good(r) && good(runs[k - 1]) && std::isfinite(r.number) && std::isfinite(runs[k - 1].number) &&
@@ -162,7 +166,7 @@ int run_converge(const ConvergeOptions& o) {
         if (std::abs(e) > 0.0 && std::abs(previous) > 0.0)
           rate = fmt::format("{:.2f}", std::log(std::abs(previous) / std::abs(e)) / std::log(runs[k - 1].number / r.number));
       }
-      line += fmt::format(" {:>14.4g} {:>6}", e, rate);
+      line += fmt::format(" {:>{}.4g} {:>6}", e, widths[n], rate);
       row += fmt::format(",{:.17g},{}", e, rate == "-" ? "" : rate);
       json_errors += fmt::format("{}{{\"name\": {}, \"value\": {}, \"rate\": {}}}", json_errors.empty() ? "" : ", ",
                                  json_quote(name), std::isfinite(e) ? fmt::format("{:.17g}", e) : "null",
