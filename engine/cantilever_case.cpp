@@ -174,8 +174,6 @@ CantileverModel<Dim> make_cantilever(const CantileverSettings<Dim>& s) {
   settings.velocity_wall = s.clamp;
   settings.surface_extrapolation = s.surface_extrapolation;
   settings.free_edge_uniaxial = s.free_edge_uniaxial;
-  settings.virtual_motion = s.virtual_motion;
-  settings.ul_ablation = s.ul_ablation;
   const LinearElastic<Dim> material(s.young_modulus, s.poisson_ratio, s.density, s.plane_mode);
   model.conditions = conditions;
   model.solver = std::make_unique<TaylorSph<Dim>>(std::move(real), std::move(virtual_particles),

@@ -49,10 +49,6 @@ struct CantileverSettings {
   typename SolverSettings<Dim>::VelocityWall clamp = SolverSettings<Dim>::VelocityWall::wall_gradient;
   bool surface_extrapolation = true;      ///< SolverSettings::surface_extrapolation
   bool free_edge_uniaxial = Dim == 3;     ///< SolverSettings::free_edge_uniaxial (3D only)
-  /// SolverSettings::virtual_motion (updated Lagrangian).
-  typename SolverSettings<Dim>::VirtualMotion virtual_motion = SolverSettings<Dim>::VirtualMotion::material_point;
-  /// SolverSettings::ul_ablation (diagnostics of the updated-Lagrangian stiffness).
-  typename SolverSettings<Dim>::UpdatedLagrangianAblation ul_ablation{};
   double end_time = 3.0;       ///< give up after this simulated time (s)
   double tolerance = 1e-5;     ///< converged when |tip velocity| < tolerance * tip_exact / T1
   /// ... and the kinetic energy < kinetic_tolerance * P |tip_exact| (the work of the

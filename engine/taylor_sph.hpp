@@ -182,47 +182,6 @@ struct SolverSettings {
   /// reorder. `none` (the default): never sorted.
   SpatialOrder spatial_order = SpatialOrder::none;
   double reorder_threshold = 2.0;  ///< > 1
-  /// Updated Lagrangian: how the virtual particles move.
-  /// real_interpolation: each virtual particle is placed, after each move of the
-  /// real set, at x_v = sum_J A_vJ x_J, A_vJ the weights of the linear-corrected kernel
-  /// interpolation at the virtual particle over its real neighbours within 2h in the
-  /// initial configuration (fixed for the run; sum_J A_vJ = 1, sum_J A_vJ X_J = X_v, so
-  /// every affine motion, rigid ones included, is followed exactly; on a lattice at
-  /// alpha 0.6 the mean of its cell's corners). Holds 12 B per such pair (2D: 200 B per
-  /// virtual particle at alpha 1.2; not in memory_estimate.hpp yet; README).
-  /// half_step_velocity (the former scheme): x_v += dt v_v^{n+1/2}, the virtual
-  /// particle's own half-step velocity. That velocity carries dt/2 div sigma / rho from
-  /// the real stresses, which need not vanish at a discrete rest (the full step sees
-  /// only what the virtual set interpolates), so the virtual particles drift from their
-  /// cells at a steady rate after the beam has come to rest (2D cantilever 41 x 5: 0.13
-  /// dx at the tip by 1.4 s, growing; diverged at 4 s) and the beam stiffens (-12.9 % at
-  /// 41 x 5; README, Known problems).
-  /// material_point (default): the former scheme, and at every half step each virtual
-  /// particle is put back at the material point X_v it stands for, read from its own
-  /// half-step stencil over the real set: with the interpolated initial coordinates
-  /// Xbar = sum_J w_J X_J, the interpolated positions xbar = sum_J w_J x_J and the
-  /// corrected gradient G = sum_J (X_J - Xbar) (x) grad w_J = dX/dx, the virtual particle
-  /// moves to x_v = xbar + G^{-1} (X_v - Xbar) (exact for every affine motion, rigid ones
-  /// included, with any partition of unity w), at every 8th step (the drift is slow;
-  /// TaylorSph::kMaterialPointInterval). No stored weights: the cure of
-  /// real_interpolation without its 12 B per pair.
-  enum class VirtualMotion { material_point, real_interpolation, half_step_velocity };
-  VirtualMotion virtual_motion = VirtualMotion::material_point;
-  /// Updated-Lagrangian ablations (diagnostics of the 2D cantilever's stiffness; README,
-  /// Known problems). All off by default; each switches off one part of the
-  /// updated-Lagrangian update and leaves the rest as it is. No effect in small strain.
-  struct UpdatedLagrangianAblation {
-    /// The particles do not move: positions, neighbour lists, kernel weights and boundary
-    /// normals stay those of x^0 (as in small strain); the Jaumann terms and the density
-    /// update stay on.
-    bool frozen_geometry = false;
-    /// The stress rate without the Jaumann terms (W sigma - sigma W), in the bulk and at
-    /// the boundary particles.
-    bool no_objective_rates = false;
-    /// Density and volume stay at their initial values.
-    bool no_density_update = false;
-  };
-  UpdatedLagrangianAblation ul_ablation;
   /// The virtual set keeps the optional fields of ParticleSet (initial positions,
   /// displacements, ids, boundary and group tags) for callers that read them (the
   /// virtual frames of `tsph run`). Off (the default): the constructor releases them
@@ -374,7 +333,7 @@ class TaylorSph {
     // updated-Lagrangian virtual motions that keep the virtual particles at X_v.
     const bool virtual_initial_positions =
         settings_.hourglass_stiffness > 0.0 || settings_.keep_virtual_fields ||
-        (positions_move() && settings_.virtual_motion != SolverSettings<Dim>::VirtualMotion::half_step_velocity);
+        positions_move();
     if (settings_.keep_virtual_fields
             ? !(virtual_.carries(virtual_.initial_position) && virtual_.carries(virtual_.displacement) &&
                 virtual_.carries(virtual_.id) && virtual_.carries(virtual_.boundary) &&
@@ -420,10 +379,6 @@ class TaylorSph {
     for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.volume[q];
     initial_spacing_ = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
     rebuild_neighbors();
-    // After the first rebuild, which may sort the sets: the weights' sums then run in
-    // the sorted order (a shuffled set sorted at construction runs bit for bit as the lattice).
-    if (virtual_follows_real())
-      visit_kernel<Dim>(settings_.kernel, [&](const auto& kernel) { build_virtual_follow(kernel); });
   }
 
   double support_radius() const { return kSupportFactor * settings_.smoothing_length; }
@@ -431,18 +386,12 @@ class TaylorSph {
   double skin_distance() const {
     return positions_move() ? settings_.neighbor_skin * support_radius() : 0.0;
   }
-  /// Updated Lagrangian: the particles move (SolverSettings::UpdatedLagrangianAblation).
-  bool positions_move() const {
-    return settings_.kinematics == Kinematics::updated_lagrangian && !settings_.ul_ablation.frozen_geometry;
-  }
+  /// Updated Lagrangian: the particles move.
+  bool positions_move() const { return settings_.kinematics == Kinematics::updated_lagrangian; }
   /// Updated Lagrangian: the stress rate carries the Jaumann terms.
-  bool objective_rates() const {
-    return settings_.kinematics == Kinematics::updated_lagrangian && !settings_.ul_ablation.no_objective_rates;
-  }
+  bool objective_rates() const { return settings_.kinematics == Kinematics::updated_lagrangian; }
   /// Updated Lagrangian: d rho / dt = -rho div v.
-  bool density_follows() const {
-    return settings_.kinematics == Kinematics::updated_lagrangian && !settings_.ul_ablation.no_density_update;
-  }
+  bool density_follows() const { return settings_.kinematics == Kinematics::updated_lagrangian; }
   /// Radius of the neighbour searches: 2h plus the skin.
   double list_radius() const { return support_radius() + skin_distance(); }
   double time() const { return time_; }
@@ -896,8 +845,7 @@ class TaylorSph {
     // The drift it removes is slow (the 2D cantilever: 1e-5 dx per step), so every
     // kMaterialPointInterval-th step is enough; each costs ~15 % of a 2D step (callgrind).
     const bool to_material_point =
-        positions_move() && settings_.virtual_motion == SolverSettings<Dim>::VirtualMotion::material_point &&
-        counters_.steps % kMaterialPointInterval == 0;
+        positions_move() && counters_.steps % kMaterialPointInterval == 0;
     const HalfStepCounts shifts = parallel_for_with_scratch<StepScratch, HalfStepCounts>(
         target.count, [&](std::size_t q, StepScratch& scratch, HalfStepCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
@@ -927,8 +875,9 @@ class TaylorSph {
     virtual_path_bound_ += shifts.largest_shift;  // the lists' skin check (lists_outdated)
   }
 
-  /// VirtualMotion::material_point: the virtual particles are put back at their material
-  /// points at the half step of every kMaterialPointInterval-th step (steps 0, 8, ...).
+  /// Updated Lagrangian: the virtual particles move with their half-step velocity and are
+  /// put back at their material points at the half step of every
+  /// kMaterialPointInterval-th step (steps 0, 8, ...): the drift is slow.
   static constexpr std::int64_t kMaterialPointInterval = 8;
 
   /// The half step's counters, and the largest move of place_at_material_point.
@@ -945,9 +894,14 @@ class TaylorSph {
     }
   };
 
-  /// SolverSettings::VirtualMotion::material_point: moves virtual particle q to
-  /// xbar + G^{-1} (X_q - Xbar) (see there) with its half-step stencil w over the real
-  /// row nb; returns the distance moved (0 where G is singular: the particle stays).
+  /// Puts virtual particle q back at the material point X_q it stands for, read from its
+  /// half-step stencil w over the real row nb: with the interpolated initial coordinates
+  /// Xbar = sum_J w_J X_J, the interpolated positions xbar = sum_J w_J x_J and the
+  /// corrected gradient G = sum_J (X_J - Xbar) (x) grad w_J = dX/dx, it moves to
+  /// x_q = xbar + G^{-1} (X_q - Xbar) (exact for every affine motion, rigid ones
+  /// included). Moved by their half-step velocity alone the virtual particles drift from
+  /// their cells once the body is at rest (v^{n+1/2} carries dt/2 div sigma / rho of the
+  /// real stresses). Returns the distance moved (0 where G is singular: the particle stays).
   double place_at_material_point(std::size_t q, std::span<const std::uint32_t> nb, const StencilWeights<Dim>& w) {
     const bool virtual_displacement = virtual_.carries(virtual_.displacement);
     Vec reference_mean = Vec::Zero(), position_mean = Vec::Zero();
@@ -1656,64 +1610,11 @@ class TaylorSph {
           real_.displacement[d][i] += half_dt * real_.velocity[d][i];
         }
     });
-    if (virtual_follows_real()) {
-      place_virtual_particles();
-      return;
-    }
     parallel_for(virtual_.size(), [&](std::size_t i) {
       for (int d = 0; d < Dim; ++d)
         if (std::isfinite(virtual_.velocity[d][i]))
           virtual_.position[d][i] += half_dt * virtual_.velocity[d][i];
     });
-  }
-
-  /// SolverSettings::VirtualMotion::real_interpolation: x_v = sum_J A_vJ x_J (and the
-  /// virtual displacement x_v - X_v) for every virtual particle with a row; one without
-  /// real neighbours at x^0 keeps the move by its own velocity.
-  void place_virtual_particles() {
-    const bool virtual_displacement = virtual_.carries(virtual_.displacement);
-    parallel_for(virtual_.size(), [&](std::size_t v) {
-      const auto row = virtual_follow_.neighbors(v);
-      if (row.empty()) return;
-      const std::uint64_t first = virtual_follow_.row_begin(v);
-      Vec x = Vec::Zero();
-      for (std::size_t k = 0; k < row.size(); ++k) x += virtual_follow_weight_[first + k] * real_.position_of(row[k]);
-      for (int d = 0; d < Dim; ++d) {
-        virtual_.position[d][v] = x[d];
-        if (virtual_displacement) virtual_.displacement[d][v] = x[d] - virtual_.initial_position[d][v];
-      }
-    });
-  }
-
-  /// The weights A_vJ of place_virtual_particles: the linear-corrected interpolation
-  /// weights at X_v over the real particles within 2h of it at X (volumes of the set as
-  /// built), and the largest sum_J |A_vJ| (the skin's bound on a virtual move).
-  template <class Kernel>
-  void build_virtual_follow(const Kernel& kernel) {
-    const PointsView<Dim> real_points = initial_points_of<Dim>(real_), virtual_points = initial_points_of<Dim>(virtual_);
-    virtual_follow_ = CellList<Dim>(real_points, support_radius()).query(virtual_points);
-    virtual_follow_weight_.assign(virtual_follow_.pair_count(), 0.0);
-    std::vector<double> gain(virtual_.size(), 0.0);
-    parallel_for_with_scratch<StencilWeights<Dim>, StencilCounts>(
-        virtual_.size(), [&](std::size_t v, StencilWeights<Dim>& w, StencilCounts&) {
-          const auto row = virtual_follow_.neighbors(v);
-          Vec x0;
-          for (int d = 0; d < Dim; ++d) x0[d] = virtual_.initial_position[d][v];
-          const StencilStatus status = compute_stencil<Dim>(kernel, settings_.smoothing_length, x0, real_points,
-                                                            real_.volume.data(), row, InterpolationKind::linear, w);
-          if (status.no_neighbors) return;
-          const std::uint64_t first = virtual_follow_.row_begin(v);
-          for (std::size_t k = 0; k < row.size(); ++k) {
-            virtual_follow_weight_[first + k] = w.value[k];
-            gain[v] += std::abs(w.value[k]);
-          }
-        });
-    virtual_follow_gain_ = 1.0;
-    for (double g : gain) virtual_follow_gain_ = std::max(virtual_follow_gain_, g);
-  }
-
-  bool virtual_follows_real() const {
-    return positions_move() && settings_.virtual_motion == SolverSettings<Dim>::VirtualMotion::real_interpolation;
   }
 
   /// Step 1b in small strain (updated Lagrangian: move_to_midpoint): the first half of
@@ -1743,9 +1644,7 @@ class TaylorSph {
       }
     });
     const bool virtual_displacement = virtual_.carries(virtual_.displacement);
-    if (virtual_follows_real()) {
-      place_virtual_particles();
-    } else if (moving) {
+    if (moving) {
       parallel_for(virtual_.size(), [&](std::size_t i) {
         for (int d = 0; d < Dim; ++d) {
           if (virtual_displacement) virtual_.displacement[d][i] += dt * virtual_.velocity[d][i];
@@ -1818,10 +1717,7 @@ class TaylorSph {
       return std::sqrt(largest);
     };
     real_path_bound_ += half_dt * largest_speed(real_);
-    // A following virtual particle moves by sum_J A_vJ (the moves of its real rows), at
-    // most virtual_follow_gain_ times the largest real move.
-    virtual_path_bound_ += half_dt * (virtual_follows_real() ? virtual_follow_gain_ * largest_speed(real_)
-                                                             : largest_speed(virtual_));
+    virtual_path_bound_ += half_dt * largest_speed(virtual_);
     const double pair_bound = real_path_bound_ + std::max(real_path_bound_, virtual_path_bound_);
     return !(pair_bound <= skin_distance() && std::isfinite(pair_bound));
   }
@@ -1935,23 +1831,6 @@ class TaylorSph {
     for (std::size_t s = 0; s < boundary_particles_.size(); ++s)
       boundary_slot_[boundary_particles_[s]] = static_cast<std::int32_t>(s);
     // By index, rebuilt at their next use.
-    if (virtual_follow_.query_count() == virtual_.size()) {  // rows to the new virtual order, entries to the new real
-      std::vector<std::uint32_t> counts(virtual_.size() + 1, 0);
-      for (std::size_t k = 0; k < virtual_order.size(); ++k)
-        counts[k + 1] = static_cast<std::uint32_t>(virtual_follow_.neighbors(virtual_order[k]).size());
-      NeighborList follow = NeighborList::from_row_counts(std::move(counts));
-      std::vector<double> weight(follow.indices.size());
-      for (std::size_t k = 0; k < virtual_order.size(); ++k) {
-        const auto row = virtual_follow_.neighbors(virtual_order[k]);
-        const std::uint64_t first = virtual_follow_.row_begin(virtual_order[k]), to = follow.row_begin(k);
-        for (std::size_t e = 0; e < row.size(); ++e) {
-          follow.indices[to + e] = new_index[row[e]];
-          weight[to + e] = virtual_follow_weight_[first + e];
-        }
-      }
-      virtual_follow_ = std::move(follow);
-      virtual_follow_weight_ = std::move(weight);
-    }
     hourglass_list_build_ = -1;
     hourglass_from_virtual_ = NeighborList{};
     hourglass_to_real_ = NeighborList{};
@@ -2140,11 +2019,6 @@ class TaylorSph {
   std::vector<std::uint32_t> momentum_pair_virtual_;  ///< its virtual particle
   NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)
   NeighborList hourglass_to_real_;       ///< its transpose
-  /// VirtualMotion::real_interpolation: rows virtual, entries real within 2h at x^0, and
-  /// the weights A_vJ per entry (place_virtual_particles).
-  NeighborList virtual_follow_;
-  std::vector<double> virtual_follow_weight_;
-  double virtual_follow_gain_ = 1.0;  ///< max_v sum_J |A_vJ|
   double hourglass_radius_ = 0.0;
   std::int64_t hourglass_list_build_ = -1;  ///< neighbor_builds when it was built
 };

@@ -63,8 +63,6 @@ struct Options {
   std::string clamp = "default";
   bool surface_extrapolation = false, no_surface_extrapolation = false;
   bool free_edge_uniaxial = false, no_free_edge_uniaxial = false;
-  std::vector<std::string> ul_ablation;  // SolverSettings::UpdatedLagrangianAblation switches
-  std::string virtual_motion = "material-point";  // SolverSettings::VirtualMotion
   double end_time = 3.0, tolerance = 1e-5, kinetic_tolerance = 1e-5;
   std::string out = "out/cantilever";
   int threads = 0;
@@ -107,7 +105,6 @@ void write_results(const Options& o, const CantileverSettings<Dim>& s, const Can
   write_file_atomically(out / "summary.json", fmt::format(
       "{{\"case\": \"cantilever\", \"dim\": {}, \"plane\": \"{}\", \"nodes\": [{}, {}, {}],\n"
       " \"dx\": {:.17g}, \"alpha\": {}, \"cfl\": {}, \"kernel\": \"{}\", \"kinematics\": \"{}\",\n"
-      " \"virtual_motion\": \"{}\", \"ul_ablation\": \"{}\",\n"
       " \"hourglass\": {}, \"hourglass_stiffness\": {}, \"clamp\": \"{}\", \"surface_extrapolation\": {},\n"
       " \"free_edge_uniaxial\": {}, \"tolerance\": {}, \"kinetic_tolerance\": {},\n"
       " \"real_particles\": {}, \"virtual_particles\": {},\n"
@@ -119,7 +116,7 @@ void write_results(const Options& o, const CantileverSettings<Dim>& s, const Can
       " \"particle_steps_per_second\": {:.6e}, \"threads\": {},\n"
       " \"gradient_fallbacks\": {}, \"interpolation_fallbacks\": {}}}\n",
       Dim, Dim == 2 ? o.plane : "none", s.nodes_x, s.nodes_y, Dim == 3 ? s.nodes_z : 1, dx,
-      s.alpha, s.cfl, o.kernel, o.kinematics, o.virtual_motion, fmt::format("{}", fmt::join(o.ul_ablation, ",")),
+      s.alpha, s.cfl, o.kernel, o.kinematics,
       s.hourglass, s.hourglass_stiffness, clamp_name(s), s.surface_extrapolation, s.free_edge_uniaxial, s.tolerance,
       s.kinetic_tolerance, r.real_particles, r.virtual_particles,
       status, message, r.converged, r.time, r.steps, r.time_step, r.tip_deflection, r.tip_exact,
@@ -159,16 +156,6 @@ int run(const Options& o) {
   if (o.no_surface_extrapolation) s.surface_extrapolation = false;
   if (o.free_edge_uniaxial) s.free_edge_uniaxial = true;
   if (o.no_free_edge_uniaxial) s.free_edge_uniaxial = false;
-  s.virtual_motion = o.virtual_motion == "half-step-velocity"
-                         ? SolverSettings<Dim>::VirtualMotion::half_step_velocity
-                     : o.virtual_motion == "real-interpolation"
-                         ? SolverSettings<Dim>::VirtualMotion::real_interpolation
-                         : SolverSettings<Dim>::VirtualMotion::material_point;
-  for (const std::string& a : o.ul_ablation) {
-    if (a == "frozen-geometry") s.ul_ablation.frozen_geometry = true;
-    else if (a == "no-jaumann") s.ul_ablation.no_objective_rates = true;
-    else if (a == "no-density") s.ul_ablation.no_density_update = true;
-  }
   s.end_time = o.end_time;
   s.tolerance = o.tolerance;
   s.kinetic_tolerance = o.kinetic_tolerance;
@@ -274,16 +261,6 @@ int main(int argc, char** argv) {
                "3D: turn it off (the edges then carry the shear force: -86 % at 41 x 5 x 5; README, "
                "Known problems)")
       ->excludes(uniaxial);
-  app.add_option("--ul-ablation", o.ul_ablation,
-                 "updated Lagrangian, diagnostics (SolverSettings::UpdatedLagrangianAblation): "
-                 "frozen-geometry, no-jaumann, no-density (any of them)")
-      ->check(CLI::IsMember({"frozen-geometry", "no-jaumann", "no-density"}));
-  app.add_option("--virtual-motion", o.virtual_motion,
-                 "updated Lagrangian: how the virtual particles move: material-point (their half-step "
-                 "velocity, put back at their material point at every half step) | real-interpolation (placed at "
-                 "the initial interpolation of the real positions) | half-step-velocity (their own "
-                 "half-step velocity; drifts, too stiff: README, Known problems)")
-      ->capture_default_str()->check(CLI::IsMember({"material-point", "real-interpolation", "half-step-velocity"}));
   app.add_option("--end-time", o.end_time, "simulated time limit (s)")->capture_default_str();
   app.add_option("--tolerance", o.tolerance,
                  "rest criterion: tip speed below this x (exact tip deflection / first-mode period)")
