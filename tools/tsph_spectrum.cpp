@@ -13,7 +13,7 @@
 #include "engine/cantilever_case.hpp"
 #include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
-#include "engine/step_map.hpp"
+#include "engine/analysis/step_map.hpp"
 #include "tools/cli_common.hpp"
 
 #include <CLI/CLI.hpp>
