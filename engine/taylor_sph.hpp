@@ -11,7 +11,7 @@
 #pragma once
 
 #include "engine/boundary_condition.hpp"
-#include "engine/elasticity.hpp"
+#include "engine/material/material.hpp"
 #include "engine/input_error.hpp"
 #include "engine/particle_set.hpp"
 #include "engine/solver/boundary/characteristics.hpp"
@@ -41,7 +41,7 @@ class TaylorSph {
   using Mat = Matrix<Dim>;
   static constexpr int stress_count = stress_component_count<Dim>;
 
-  TaylorSph(ParticleSet<Dim> real, ParticleSet<Dim> virtual_particles, LinearElastic<Dim> material,
+  TaylorSph(ParticleSet<Dim> real, ParticleSet<Dim> virtual_particles, Material<Dim> material,
             SolverSettings<Dim> settings, std::vector<BoundaryCondition<Dim>> boundaries)
       : state_(std::move(real), std::move(virtual_particles), std::move(material), std::move(settings),
                std::move(boundaries)) {
@@ -66,13 +66,13 @@ class TaylorSph {
   void advance_fields(double dt) {
     const SolverSettings<Dim>& settings = state_.settings;
     const double t_new = state_.time + dt;
-    visit_kernel<Dim>(settings.kernel, [&](const auto& kernel) {
+    visit_stages([&](const auto& kernel, const auto& model) {
       CharacteristicBoundary<Dim>::gradients_at_n(state_, kernel);  // grad U^n at the boundary
-      HalfStep<Dim>::apply(state_, kernel, dt);                       // seed eq. (3): real -> virtual
+      HalfStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (3): real -> virtual
       if (settings.conservative_momentum) momentum_.store_weights(state_, kernel);
       Motion<Dim>::first_half(state_, dt);                            // to x^{n+1/2} (or u += dt/2 v^n)
-      FullStep<Dim>::apply(state_, kernel, dt);                       // seed eq. (4): virtual -> real
-      CharacteristicBoundary<Dim>::apply(state_, dt, t_new);          // boundary state at n+1
+      FullStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (4): virtual -> real
+      CharacteristicBoundary<Dim>::apply(state_, model, dt, t_new);   // boundary state at n+1
       if (settings.conservative_momentum) momentum_.apply(state_, dt, t_new);
       if (settings.hourglass_stiffness > 0.0) hourglass_stiffness_.apply(state_, kernel, dt);
       if (settings.hourglass_coefficient > 0.0) surface_filter_.apply(state_, kernel);
@@ -85,10 +85,10 @@ class TaylorSph {
 
   /// The stages one at a time (benchmarks): seed eq. (3), seed eq. (4), the lists.
   void half_step(double dt) {
-    visit_kernel<Dim>(state_.settings.kernel, [&](const auto& kernel) { HalfStep<Dim>::apply(state_, kernel, dt); });
+    visit_stages([&](const auto& kernel, const auto& model) { HalfStep<Dim>::apply(state_, kernel, model, dt); });
   }
   void full_step(double dt) {
-    visit_kernel<Dim>(state_.settings.kernel, [&](const auto& kernel) { FullStep<Dim>::apply(state_, kernel, dt); });
+    visit_stages([&](const auto& kernel, const auto& model) { FullStep<Dim>::apply(state_, kernel, model, dt); });
   }
   void rebuild_neighbors() { NeighborLists<Dim>::rebuild(state_); }
 
@@ -110,7 +110,7 @@ class TaylorSph {
   void set_time(double t) { state_.time = t; }
   const ParticleSet<Dim>& real() const { return state_.real; }
   const ParticleSet<Dim>& virtual_particles() const { return state_.virtual_; }
-  const LinearElastic<Dim>& material() const { return state_.material; }
+  const Material<Dim>& material() const { return state_.material; }
   const SolverSettings<Dim>& settings() const { return state_.settings; }
   const SolverCounters& counters() const { return state_.counters; }
   const NeighborList& virtual_from_real() const { return state_.lists.virtual_from_real; }
@@ -160,8 +160,10 @@ class TaylorSph {
   double strain_energy() const {
     double energy = 0.0;
     const ParticleSet<Dim>& real = state_.real;
-    for (std::size_t i = 0; i < real.size(); ++i)
-      energy += real.volume[i] * state_.material.strain_energy_density(SolverState<Dim>::stress_of(real, i));
+    state_.material.visit([&](const auto& model) {
+      for (std::size_t i = 0; i < real.size(); ++i)
+        energy += real.volume[i] * model.strain_energy_density(SolverState<Dim>::stress_of(real, i));
+    });
     return energy;
   }
   /// Linear momentum sum_I m_I v_I of the real particles.
@@ -174,6 +176,14 @@ class TaylorSph {
   }
 
  private:
+  /// The two runtime choices of the loops, each dispatched once here: f(kernel, model).
+  template <class F>
+  void visit_stages(F&& f) {
+    state_.material.visit([&](const auto& model) {
+      visit_kernel<Dim>(state_.settings.kernel, [&](const auto& kernel) { f(kernel, model); });
+    });
+  }
+
   SolverState<Dim> state_;
   // The stages that keep scratch between steps; the others are stateless.
   ConservativeMomentum<Dim> momentum_;

@@ -24,8 +24,8 @@ struct FullStep {
   static constexpr int stress_count = stress_component_count<Dim>;
 
   /// Seed eq. (4): virtual -> real, U_r^{n+1} = U_r^n + dt (S^{n+1/2} - div F^{n+1/2}).
-  template <class Kernel>
-  static void apply(SolverState<Dim>& state, const Kernel& kernel, double dt) {
+  template <class Kernel, class Model>
+  static void apply(SolverState<Dim>& state, const Kernel& kernel, const Model& model, double dt) {
     const ParticleView<Dim> source = state.virtual_.view();
     const ParticleView<Dim> target = state.real.view();
     const PointsView<Dim> source_points = points_of<Dim>(state.virtual_);
@@ -70,8 +70,10 @@ struct FullStep {
             state.boundary.half_stress_gradient[static_cast<std::size_t>(b)] =
                 Eval::stress_gradient(source, nb, w, s.stress);
           }
-          const StressVector<Dim> rate = state.material.stress_rate(s.velocity_gradient, s.stress, objective);
-          for (int m = 0; m < stress_count; ++m) target.stress[m][r] += dt * rate[m];
+          StressVector<Dim> previous;  // sigma_r^n; the Jaumann terms rotate the interpolated s.stress
+          for (int m = 0; m < stress_count; ++m) previous[m] = target.stress[m][r];
+          const StressVector<Dim> stress = model.update_stress({previous, s.stress, s.velocity_gradient, dt, objective});
+          for (int m = 0; m < stress_count; ++m) target.stress[m][r] = stress[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][r] +=
                 dt * (s.stress_divergence[d] / s.density + state.settings.body_force[d] -

@@ -45,8 +45,8 @@ struct HalfStep {
 
 
   /// Seed eq. (3): real -> virtual, U_v^{n+1/2} = U_v^n + dt/2 (S - div F).
-  template <class Kernel>
-  static void apply(SolverState<Dim>& state, const Kernel& kernel, double dt) {
+  template <class Kernel, class Model>
+  static void apply(SolverState<Dim>& state, const Kernel& kernel, const Model& model, double dt) {
     const ParticleView<Dim> source = state.real.view();
     const ParticleView<Dim> target = state.virtual_.view();
     const PointsView<Dim> source_points = points_of<Dim>(state.real);
@@ -67,9 +67,8 @@ struct HalfStep {
           counts += status;
           if (status.no_neighbors) return;  // isolated: keeps its values (counted)
           const LocalState s = Eval::evaluate(source, nb, w, scratch.gathered);
-          const StressVector<Dim> rate = state.material.stress_rate(s.velocity_gradient, s.stress, objective);
-          for (int m = 0; m < stress_count; ++m)
-            target.stress[m][q] = s.stress[m] + half_dt * rate[m];
+          const StressVector<Dim> stress = model.update_stress({s.stress, s.stress, s.velocity_gradient, half_dt, objective});
+          for (int m = 0; m < stress_count; ++m) target.stress[m][q] = stress[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][q] =
                 s.velocity[d] + half_dt * (s.stress_divergence[d] / s.density +
@@ -83,7 +82,7 @@ struct HalfStep {
             counts.largest_shift = std::max(counts.largest_shift, place_at_material_point(state, q, nb, w));
         });
     state.add(shifts);
-    state.lists.virtual_path_bound += shifts.largest_shift;  // the lists' skin check (lists_outdated)
+    state.lists.virtual_path_bound += shifts.largest_shift;  // the lists' skin check (NeighborLists::outdated)
   }
 
   /// Puts virtual particle q back at the material point X_q it stands for, read from its

@@ -45,7 +45,7 @@ struct Motion {
   /// (omega J - dt/2 omega^2) (x^n - c) has divergence -omega^2 dt, a spurious
   /// compression that grew the pressure linearly in time (README, objectivity). In the
   /// midpoint configuration its gradient is skew to O(dt^2). A non-finite velocity
-  /// leaves its particle where it is (check_stability reports it). The real set's pass
+  /// leaves its particle where it is (the stability monitor reports it). The real set's pass
   /// also makes begin_displacement's update (the same increment dt/2 v^n).
   static void move_to_midpoint(SolverState<Dim>& state, double dt) {
     const double half_dt = 0.5 * dt;

@@ -173,7 +173,7 @@ struct NeighborLists {
     return spatial_order<Dim>(state.settings.spatial_order, points_of<Dim>(set), 0.25 * state.support_radius());
   }
 
-  /// Sorts both sets into SolverSettings::spatial_order (permute_state).
+  /// Sorts both sets into SolverSettings::spatial_order (permute).
   static void sort_particles(SolverState<Dim>& state) {
     permute(state, order_of(state, state.real), order_of(state, state.virtual_));
     ++state.counters.reorders;

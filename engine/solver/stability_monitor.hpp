@@ -76,6 +76,7 @@ class StabilityMonitor {
     const std::size_t real_blocks = (state.real.size() + kStabilityBlock - 1) / kStabilityBlock;
     const std::size_t virtual_blocks = (state.virtual_.size() + kStabilityBlock - 1) / kStabilityBlock;
     stability_blocks_.resize(real_blocks + virtual_blocks);
+    state.material.visit([&](const auto& model) {  // once, outside the loop
     parallel_for(real_blocks + virtual_blocks, [&](std::size_t block) {
       const bool is_real = block < real_blocks;
       const ParticleSet<Dim>& set = is_real ? state.real : state.virtual_;
@@ -92,9 +93,10 @@ class StabilityMonitor {
           double v2 = 0.0;
           for (int d = 0; d < Dim; ++d) v2 += set.velocity[d][i] * set.velocity[d][i];
           result.kinetic += 0.5 * set.mass[i] * v2;
-          result.strain += set.volume[i] * state.material.strain_energy_density(state.stress_of(set, i));
+          result.strain += set.volume[i] * model.strain_energy_density(state.stress_of(set, i));
         }
       stability_blocks_[block] = result;
+    });
     });
     for (std::size_t block = 0; block < real_blocks + virtual_blocks; ++block)
       if (const std::size_t i = stability_blocks_[block].first_non_finite; i != kNoParticle) {
@@ -205,7 +207,7 @@ class StabilityMonitor {
     return found;
   }
 
-  /// check_stability's pass: per block of kStabilityBlock particles (real blocks, then
+  /// check's pass: per block of kStabilityBlock particles (real blocks, then
   /// virtual ones), the first non-finite particle and the real blocks' energies.
   static constexpr std::size_t kStabilityBlock = 4096;
   static constexpr std::size_t kNoParticle = static_cast<std::size_t>(-1);
@@ -214,7 +216,7 @@ class StabilityMonitor {
     double kinetic = 0.0, strain = 0.0;
   };
   std::vector<StabilityBlock> stability_blocks_;
-  double previous_energy_ = 0.0;   ///< total energy after the last step (check_stability)
+  double previous_energy_ = 0.0;   ///< total energy after the last step (check)
   std::array<int, kRunawayGrowths.size()> energy_growth_steps_{};  ///< consecutive, per growth
   std::vector<double> largest_energy_;  ///< largest energy so far, after each recent step
   std::int64_t energized_steps_ = 0;    ///< steps with a positive largest energy

@@ -5,7 +5,7 @@
 #pragma once
 
 #include "engine/boundary_condition.hpp"
-#include "engine/elasticity.hpp"
+#include "engine/material/material.hpp"
 #include "engine/particle_set.hpp"
 #include "engine/solver/settings.hpp"
 #include "engine/solver/stencil_evaluation.hpp"
@@ -114,7 +114,7 @@ struct SolverState {
 
   ParticleSet<Dim> real;
   ParticleSet<Dim> virtual_;
-  LinearElastic<Dim> material;
+  Material<Dim> material;  ///< the stress update (engine/material/material.hpp)
   SolverSettings<Dim> settings;
   std::vector<BoundaryCondition<Dim>> boundaries;
   double time = 0.0;
@@ -125,7 +125,7 @@ struct SolverState {
 
   /// Checks the settings and both sets, releases the virtual fields the run does not
   /// read, and fills the boundary slots. The lists are built by the solver.
-  SolverState(ParticleSet<Dim> real_set, ParticleSet<Dim> virtual_set, LinearElastic<Dim> model,
+  SolverState(ParticleSet<Dim> real_set, ParticleSet<Dim> virtual_set, Material<Dim> model,
               SolverSettings<Dim> run_settings, std::vector<BoundaryCondition<Dim>> conditions)
       : real(std::move(real_set)),
         virtual_(std::move(virtual_set)),

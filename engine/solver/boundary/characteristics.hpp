@@ -72,10 +72,13 @@ struct CharacteristicBoundary {
   }
 
   /// Step 3: characteristic boundary conditions at t_new (see the file comment).
-  static void apply(SolverState<Dim>& state, double dt, double t_new) {
-    const double lame = state.material.model_lame();
-    const double shear = state.material.shear_modulus();
-    const double modulus = state.material.p_wave_modulus();
+  template <class Model>
+  static void apply(SolverState<Dim>& state, const Model& model, double dt, double t_new) {
+    // The characteristic relations take the elastic part of the model (its wave speeds).
+    const LinearElastic<Dim>& elastic = model.elastic();
+    const double lame = elastic.model_lame();
+    const double shear = elastic.shear_modulus();
+    const double modulus = elastic.p_wave_modulus();
     for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
       const std::uint32_t i = state.boundary.particle[b];
       const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
@@ -86,7 +89,7 @@ struct CharacteristicBoundary {
       }
       if (state.settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient &&
           condition.kind == BoundaryCondition<Dim>::Kind::velocity) {
-        WallGradient<Dim>::apply(state, b, i, condition, dt, t_new);
+        WallGradient<Dim>::apply(state, model, b, i, condition, dt, t_new);
         continue;
       }
       const Vec& n = state.boundary.normal[b];
@@ -203,7 +206,7 @@ struct CharacteristicBoundary {
         for (int c = r; c < Dim; ++c) state.real.stress[stress_index<Dim>(r, c)][i] = stress_global(r, c);
       if constexpr (Dim == 2) {  // sigma_zz: plane strain follows lambda tr d; plane stress 0
         const auto zz = 3;
-        state.real.stress[zz][i] = state.material.plane_mode() == PlaneMode::plane_stress
+        state.real.stress[zz][i] = elastic.plane_mode() == PlaneMode::plane_stress
                                   ? 0.0
                                   : state.boundary.stress[b][zz] + dt * lame * volumetric;
       }

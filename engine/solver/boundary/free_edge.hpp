@@ -114,7 +114,7 @@ struct FreeEdge {
       const Vec e_frame = frame.transpose() * e;
       const double rate = e_frame.dot(velocity_dt * e_frame);
       const double previous = e.dot(in_plane<Dim>(state.boundary.stress[b]) * e);
-      stress_global = (previous + dt * state.material.young_modulus() * rate) * e * e.transpose();
+      stress_global = (previous + dt * state.material.elastic().young_modulus() * rate) * e * e.transpose();
     } else {
       (void)state, (void)b, (void)i, (void)n, (void)frame, (void)velocity_dt, (void)dt, (void)stress_global;
     }

@@ -22,13 +22,15 @@ struct WallGradient {
   /// virtual half-step velocity relative to the prescribed v^{n+1/2} at the particle,
   ///     sum_J V_J (v_J - v_wall) Gn_IJ = grad v + (v(x_I) - v_wall) (x) sum_J V_J Gn_IJ,
   /// and v^{n+1} prescribed.
-  static void apply(SolverState<Dim>& state, std::size_t b, std::uint32_t i, const BoundaryCondition<Dim>& condition,
+  template <class Model>
+  static void apply(SolverState<Dim>& state, const Model& model, std::size_t b, std::uint32_t i, const BoundaryCondition<Dim>& condition,
                            double dt, double t_new) {
     const Vec wall_half = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new - 0.5 * dt);
     const Mat gradient = state.boundary.half_velocity_gradient[b] +
                          (state.boundary.half_velocity[b] - wall_half) * state.boundary.gradient_sum[b].transpose();
-    const StressVector<Dim> rate = state.material.stress_rate(gradient, state.boundary.stress[b], state.objective_rates());
-    for (int m = 0; m < stress_count; ++m) state.real.stress[m][i] = state.boundary.stress[b][m] + dt * rate[m];
+    const StressVector<Dim>& previous = state.boundary.stress[b];
+    const StressVector<Dim> stress = model.update_stress({previous, previous, gradient, dt, state.objective_rates()});
+    for (int m = 0; m < stress_count; ++m) state.real.stress[m][i] = stress[m];
     const Vec v = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
     for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = v[d];
     if (state.density_follows()) {

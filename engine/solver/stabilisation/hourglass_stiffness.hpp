@@ -49,7 +49,7 @@ class HourglassStiffness {
     if (hourglass_list_build_ != state.counters.neighbor_builds) build_lists(state);
     const double h = state.settings.smoothing_length;
     const double return_h = 0.5 * hourglass_radius_;  // kernel support = the list radius
-    const double stiffness = state.settings.hourglass_stiffness * state.material.p_wave_modulus() / (h * h);
+    const double stiffness = state.settings.hourglass_stiffness * state.material.elastic().p_wave_modulus() / (h * h);
     using Basis = Eigen::Matrix<double, Dim + 1, 1>;
     using Moments = Eigen::Matrix<double, Dim + 1, Dim + 1>;
     auto offset = [&](std::uint32_t r, std::uint32_t v) {  // X_r - X_v, initial coordinates
@@ -156,7 +156,7 @@ class HourglassStiffness {
  private:
 
   /// One linear least-squares fit u(X) ~ a + B (X - X_0) over a stencil (see
-  /// apply_hourglass_stiffness): the value a = sum_J c^T p_J (w_J / w) u_J, with
+  /// apply): the value a = sum_J c^T p_J (w_J / w) u_J, with
   /// p_J = (1, X_J - X_0), w = sum_J w_J and c the first column of the inverse of the
   /// normalised moment matrix sum_J (w_J / w) p_J p_J^T. weight_sum = 0: no fit.
   struct LinearFitWeights {
