@@ -17,21 +17,6 @@
 
 #include <benchmark/benchmark.h>
 
-namespace tsph {
-
-template <int Dim>
-struct StepStages {
-  static void half(TaylorSph<Dim>& s, double dt) {
-    visit_kernel<Dim>(s.settings_.kernel, [&](const auto& kernel) { s.half_step(kernel, dt); });
-  }
-  static void full(TaylorSph<Dim>& s, double dt) {
-    visit_kernel<Dim>(s.settings_.kernel, [&](const auto& kernel) { s.full_step(kernel, dt); });
-  }
-  static void rebuild(TaylorSph<Dim>& s) { s.rebuild_neighbors(); }
-};
-
-}  // namespace tsph
-
 namespace {
 
 using namespace tsph;
@@ -57,9 +42,9 @@ void BM_Stage(benchmark::State& state) {
   const double dt = bench::block_time_step(solver, kAlpha);
   for (auto _ : state) {
     if constexpr (stage == Stage::step) solver.step(dt);
-    else if constexpr (stage == Stage::half) StepStages<Dim>::half(solver, dt);
-    else if constexpr (stage == Stage::full) StepStages<Dim>::full(solver, dt);
-    else StepStages<Dim>::rebuild(solver);
+    else if constexpr (stage == Stage::half) solver.half_step(dt);
+    else if constexpr (stage == Stage::full) solver.full_step(dt);
+    else solver.rebuild_neighbors();
   }
   const auto real_count = static_cast<std::int64_t>(solver.real().size());
   state.SetItemsProcessed(state.iterations() * real_count);

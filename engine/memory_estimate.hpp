@@ -10,7 +10,7 @@
 //     group; ParticleSet::release_optional_fields) unless
 //     SolverSettings::keep_virtual_fields (`keep_virtual_fields` here: + Dim doubles
 //     and 3 int32); the initial positions X_v (Dim doubles) are kept, read by the
-//     updated-Lagrangian virtual motion (SolverSettings::VirtualMotion::material_point,
+//     updated-Lagrangian virtual motion (TaylorSph::place_at_material_point,
 //     the default) and the hourglass stiffness (which also builds lists of its own: not
 //     modelled);
 //   * no v^n (the displacement takes dt/2 v^n before the full step; only the

@@ -84,7 +84,7 @@ TEST(MemoryEstimate, SolverReleasesWhatItDoesNotRead) {
   for (int k = 0; k < 2; ++k) solver.step(dt);
   const auto& virtual_particles = solver.virtual_particles();
   for (int d = 0; d < 2; ++d) {
-    // X_v is read by the updated-Lagrangian virtual motion (VirtualMotion::material_point).
+    // X_v is read by the updated-Lagrangian virtual motion (the virtual particles' material points).
     EXPECT_EQ(virtual_particles.initial_position[d].size(), virtual_particles.size());
     EXPECT_TRUE(virtual_particles.displacement[d].empty());
     EXPECT_EQ(virtual_particles.position[d].size(), virtual_particles.size());
@@ -104,12 +104,6 @@ TEST(MemoryEstimate, SolverReleasesWhatItDoesNotRead) {
                                    });
   auto stiff = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
                                     [](SolverSettings<2>& settings) { settings.hourglass_stiffness = 0.05; });
-  // The former virtual motion (their own half-step velocity) reads no X_v.
-  auto drifting = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
-                                       [](SolverSettings<2>& settings) {
-                                         settings.virtual_motion = SolverSettings<2>::VirtualMotion::half_step_velocity;
-                                       });
-  for (int d = 0; d < 2; ++d) EXPECT_TRUE(drifting.virtual_particles().initial_position[d].empty());
   for (int k = 0; k < 2; ++k) kept.step(dt), stiff.step(dt);
   const auto& full = kept.virtual_particles();
   for (int d = 0; d < 2; ++d) {

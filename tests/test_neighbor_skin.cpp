@@ -204,7 +204,7 @@ void check_identical_runs(std::int64_t nodes, int steps, bool conservative) {
   constexpr double kRoundOff = 1e-12;  // measured 5e-14
   // With conservative momentum the momentum weights are computed after the half step,
   // over the half step's rows, at the virtual positions that the half step has just put
-  // back at their material points (VirtualMotion::material_point): without skin those
+  // back at their material points (TaylorSph::place_at_material_point): without skin those
   // rows are the search at x^n, so a real particle that the shift brings within 2h is
   // missing (a weight of the kernel's tail, (2 - q)^3); with skin it is in the row.
   // Measured 1.2e-9 (both runs are consistent to that order; the skin run is the exact one).

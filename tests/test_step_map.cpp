@@ -1,7 +1,7 @@
-// The one-step map U^{n+1} = G U^n + f (engine/step_map.hpp), behind tsph-spectrum.
+// The one-step map U^{n+1} = G U^n + f (engine/analysis/step_map.hpp), behind tsph spectrum.
 #include "engine/case/case_build.hpp"
 #include "engine/lattice.hpp"
-#include "engine/step_map.hpp"
+#include "engine/analysis/step_map.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 // tsph spectrum CASE: the one-step map of a case, U^{n+1} = G U^n + f, assembled column
-// by column (engine/step_map.hpp), its eigenvalues, and its fixed point.
+// by column (engine/analysis/step_map.hpp), its eigenvalues, and its fixed point.
 //
 //   tsph spectrum tools/cases/cantilever_2d.toml --set geometry.spacing=0.025 [--modes 8] [--out DIR]
 //
@@ -16,7 +16,7 @@
 #include "engine/case/case_file.hpp"
 #include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
-#include "engine/step_map.hpp"
+#include "engine/analysis/step_map.hpp"
 #include "engine/validation/cantilever.hpp"
 #include "tools/cli_common.hpp"
 #include "tools/tsph_commands.hpp"

@@ -1,4 +1,6 @@
-// The one-step map of the stepper as a matrix, for its spectrum (tools/tsph_spectrum.cpp).
+// The one-step map of the stepper as a matrix, for its spectrum (tools/tsph_spectrum.cpp):
+// an analysis of the solver that runs its public stages (TaylorSph::advance_fields,
+// advance_positions), the same sequence as TaylorSph::step.
 //
 // With particles held in place (small strain) one step is affine in the state of the
 // real particles, U = (stress, velocity[, displacement]) per particle:
@@ -36,25 +38,6 @@ struct StepMapLayout {
   std::vector<StepMapUnknown> unknowns;
   double stress_unit = 1.0;        ///< Z = rho c_p (Pa per unit of the scaled stress)
   double displacement_unit = 1.0;  ///< dt (m per unit of the scaled displacement)
-};
-
-/// One step applied to a given state without the stability check (a unit vector is no
-/// physical state); the stages of TaylorSph::step in its order.
-template <int Dim>
-struct LinearStepAccess {
-  static void step(TaylorSph<Dim>& s, double dt) {
-    visit_kernel<Dim>(s.settings_.kernel, [&](const auto& kernel) {
-      s.boundary_gradients(kernel);
-      s.half_step(kernel, dt);
-      s.begin_displacement(dt);
-      s.full_step(kernel, dt);
-      s.apply_boundary_conditions(dt, s.time_ + dt);
-      if (s.settings_.hourglass_stiffness > 0.0) s.apply_hourglass_stiffness(kernel, dt);
-      if (s.settings_.hourglass_coefficient > 0.0) s.filter_hourglass(kernel);
-    });
-    s.move(dt);
-  }
-  static ParticleSet<Dim>& real(TaylorSph<Dim>& s) { return s.real_; }
 };
 
 /// The unknowns: the stress components that evolve (plane stress leaves sigma_zz = 0
@@ -102,7 +85,7 @@ double unit_of(const StepMapLayout<Dim>& layout, const StepMapUnknown& u) {
 template <int Dim>
 Eigen::VectorXd apply_step(TaylorSph<Dim>& solver, const StepMapLayout<Dim>& layout,
                            const Eigen::VectorXd& in, double t, double dt) {
-  ParticleSet<Dim>& real = LinearStepAccess<Dim>::real(solver);
+  ParticleSet<Dim>& real = solver.state().real;
   for (auto& field : real.stress) std::fill(field.begin(), field.end(), 0.0);
   for (auto& field : real.velocity) std::fill(field.begin(), field.end(), 0.0);
   for (auto& field : real.displacement) std::fill(field.begin(), field.end(), 0.0);
@@ -110,7 +93,10 @@ Eigen::VectorXd apply_step(TaylorSph<Dim>& solver, const StepMapLayout<Dim>& lay
     detail::unknown_ref(real, layout.unknowns[k]) = in[static_cast<Eigen::Index>(k)] *
                                                     detail::unit_of(layout, layout.unknowns[k]);
   solver.set_time(t);
-  LinearStepAccess<Dim>::step(solver, dt);
+  // One step without the stability check (a unit vector is no physical state): the
+  // stages of TaylorSph::step in its order.
+  solver.advance_fields(dt);
+  solver.advance_positions(dt);
   solver.set_time(t);
   Eigen::VectorXd out(in.size());
   for (std::size_t k = 0; k < layout.unknowns.size(); ++k)

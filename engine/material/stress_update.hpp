@@ -1,0 +1,24 @@
+// The input of a material model's stress update (material/material.hpp).
+#pragma once
+
+#include "engine/material/stress.hpp"
+#include "engine/particle_set.hpp"
+
+namespace tsph {
+
+/// One particle's stress update over dt: the particle's state sigma^n in, the velocity
+/// gradient L = grad v (its symmetric part the rate of deformation d, its skew part the
+/// spin W) in, sigma^{n+1} out. `rate_stress` is the stress that the objective
+/// (Jaumann) terms W sigma - sigma W rotate: the interpolated stress at the particle,
+/// which in the full step differs from the particle's own sigma^n. `objective`: the
+/// Jaumann terms are on (updated Lagrangian).
+template <int Dim>
+struct StressUpdate {
+  const StressVector<Dim>& stress;
+  const StressVector<Dim>& rate_stress;
+  const Matrix<Dim>& velocity_gradient;
+  double dt;
+  bool objective;
+};
+
+}  // namespace tsph

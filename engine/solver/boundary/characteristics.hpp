@@ -1,0 +1,217 @@
+// The characteristic boundary treatment (DESIGN.md section 4), Dim = 1, 2, 3: the
+// boundary pre-pass (U^n and its gradients at the boundary particles, from the real set)
+// and the boundary state at n+1.
+//
+// (seed eq. 1b, divided by the density at the particle).
+//
+// Our choices, beyond the seed (documented in README.md):
+//  * The source S (Jaumann terms, body force, damping -c v) is evaluated at the
+//    particle being updated from its own interpolated state and corrected velocity
+//    gradient, rather than at the neighbours and interpolated: the same order of
+//    accuracy, and no same-set neighbour lists in the bulk.
+//  * Boundary real particles take their state from the characteristic relations in
+//    the frame (n, t_k) of their computed outward normal. With t_n = n.sigma.n,
+//    u_n = v.n, Z_p = rho c_p (and t_k = n.sigma.t_k, u_k = v.t_k, Z_s = rho c_s):
+//      d/dt (t_n - Z_p u_n) + c_p d/dn (t_n - Z_p u_n)
+//          = lambda div_t v_t - c_p div_t (sigma n)_t - Z_p b_n,
+//      d/dt (t_k - Z_s u_k) + c_s d/dn (t_k - Z_s u_k)
+//          = mu d_k u_n - c_s sum_l d_l sigma_lk - Z_s b_k.
+//    Each outgoing invariant is carried from the foot x - c dt n at time n
+//    (interpolated with the real set's corrected gradient) plus dt times its
+//    right-hand side, whose tangential derivatives are taken at n+1/2 from the
+//    virtual set; the incoming invariants follow from the prescribed velocity or
+//    traction. The tangential stresses then follow from the constitutive law with the
+//    normal derivative of u_n eliminated through the t_n rate. In 1D there are no
+//    tangents and this is exact at CFL 1 with nearest-neighbour stencils; a 2D strip
+#pragma once
+
+#include "engine/solver/boundary/free_edge.hpp"
+#include "engine/solver/boundary/normals.hpp"
+#include "engine/solver/boundary/wall_gradient.hpp"
+#include "engine/solver/stabilisation/surface_extrapolation.hpp"
+#include "engine/solver/state.hpp"
+#include "engine/solver/stencil_evaluation.hpp"
+
+#include <array>
+#include <cmath>
+
+namespace tsph {
+
+template <int Dim>
+struct CharacteristicBoundary {
+  using Vec = Vector<Dim>;
+  using Mat = Matrix<Dim>;
+  static constexpr int stress_count = stress_component_count<Dim>;
+
+  /// Step 0: U^n and its gradients at the boundary particles, from the real set.
+  template <class Kernel>
+  static void gradients_at_n(SolverState<Dim>& state, const Kernel& kernel) {
+    const ParticleView<Dim> source = state.real.view();
+    const PointsView<Dim> source_points = points_of<Dim>(state.real);
+    StencilWeights<Dim> w;
+    StencilCounts counts;
+    for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
+      const std::uint32_t i = state.boundary.particle[b];
+      const auto nb = state.lists.real_from_real.neighbors(i);
+      counts += compute_stencil<Dim>(kernel, state.settings.smoothing_length, state.real.position_of(i),
+                                     source_points, source.volume, nb,
+                                     InterpolationKind::shepard, w);
+      Mat grad_v = Mat::Zero();
+      for (std::size_t k = 0; k < nb.size(); ++k)
+        for (int d = 0; d < Dim; ++d)
+          grad_v.row(d) += (source.velocity[d][nb[k]] - source.velocity[d][i]) *
+                           w.gradient_of(k).transpose();
+      state.boundary.stress[b] = state.stress_of(state.real, i);
+      state.boundary.velocity[b] = state.velocity_of(i);
+      state.boundary.density[b] = state.real.density[i];
+      state.boundary.velocity_gradient[b] = grad_v;
+      state.boundary.stress_gradient[b] = StencilEvaluation<Dim>::stress_gradient(source, nb, w, state.boundary.stress[b]);
+    }
+    counts.interpolation = 0;  // the Shepard weights are not used here
+    state.add(counts);
+  }
+
+  /// Step 3: characteristic boundary conditions at t_new (see the file comment).
+  template <class Model>
+  static void apply(SolverState<Dim>& state, const Model& model, double dt, double t_new) {
+    // The characteristic relations take the elastic part of the model (its wave speeds).
+    const LinearElastic<Dim>& elastic = model.elastic();
+    const double lame = elastic.model_lame();
+    const double shear = elastic.shear_modulus();
+    const double modulus = elastic.p_wave_modulus();
+    for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
+      const std::uint32_t i = state.boundary.particle[b];
+      const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
+      if (!state.boundary.on_surface[b]) {  // a velocity held inside the body: imposed directly
+        const Vec v = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
+        for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = v[d];
+        continue;
+      }
+      if (state.settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient &&
+          condition.kind == BoundaryCondition<Dim>::Kind::velocity) {
+        WallGradient<Dim>::apply(state, model, b, i, condition, dt, t_new);
+        continue;
+      }
+      const Vec& n = state.boundary.normal[b];
+      const Mat frame = normal_frame<Dim>(n);
+      const double density = state.boundary.density[b];
+      const double c_p = std::sqrt(modulus / density);
+      const double c_s = std::sqrt(shear / density);
+      const double z_p = density * c_p;
+      const double z_s = density * c_s;
+
+      // State at n and its normal derivatives (real set), in the frame.
+      const Mat stress0 = frame.transpose() * in_plane<Dim>(state.boundary.stress[b]) * frame;
+      const Vec velocity0 = frame.transpose() * state.boundary.velocity[b];
+      const Mat stress_dn = frame.transpose() * directional<Dim>(state.boundary.stress_gradient[b], n) * frame;
+      const Vec velocity_dn = frame.transpose() * (state.boundary.velocity_gradient[b] * n);
+      // Tangential derivatives at n+1/2 (virtual set): column k of velocity_dt is
+      // d v' / d t_k, stress_dt[k] is d sigma' / d t_k.
+      // Tangential derivatives at n+1/2 from the virtual set (second order in time; the
+      // real set's gradients at time n would make this forward Euler, which is
+      // unstable). Where the virtual stencil spans fewer than Dim directions (a corner
+      // with one virtual neighbour at alpha 0.6) the missing direction is read as zero.
+      Mat velocity_dt = Mat::Zero();
+      std::array<Mat, Dim> stress_dt{};
+      for (int k = 1; k < Dim; ++k) {
+        const Vec t = frame.col(k);
+        velocity_dt.col(k) = frame.transpose() * (state.boundary.half_velocity_gradient[b] * t);
+        stress_dt[k] = frame.transpose() * directional<Dim>(state.boundary.half_stress_gradient[b], t) * frame;
+      }
+      if (state.settings.surface_extrapolation) SurfaceExtrapolation<Dim>::apply(state, b, i, frame, t_new, velocity_dt);
+      // Effective body force, with the damping, at time n.
+      const Vec force = frame.transpose() * (state.settings.body_force - state.settings.damping * state.boundary.velocity[b]);
+
+      // Updated Lagrangian: the Jaumann terms (W sigma - sigma W) of the normal stress
+      // components t_n, t_k (the frame is held fixed over the step), with the spin W from
+      // the velocity gradient in the frame: tangential columns from the virtual set at
+      // n+1/2, the normal column from the real set at n.
+      Mat jaumann = Mat::Zero();
+      if (state.objective_rates()) {
+        Mat gradient_estimate = velocity_dt;
+        gradient_estimate.col(0) = velocity_dn;
+        const Mat spin_estimate = 0.5 * (gradient_estimate - gradient_estimate.transpose());
+        jaumann = objective_rotation_rate<Dim>(spin_estimate, stress0, dt);
+      }
+      // Outgoing invariants at n+1.
+      double tangential_divergence = 0.0;  // div_t v_t
+      double p_rhs = -z_p * force[0] + jaumann(0, 0);
+      for (int k = 1; k < Dim; ++k) {
+        tangential_divergence += velocity_dt(k, k);
+        p_rhs += lame * velocity_dt(k, k) - c_p * stress_dt[k](k, 0);
+      }
+      const double p_invariant = stress0(0, 0) - z_p * velocity0[0] -
+                                 c_p * dt * (stress_dn(0, 0) - z_p * velocity_dn[0]) + dt * p_rhs;
+      std::array<double, Dim> s_invariant{};
+      for (int k = 1; k < Dim; ++k) {
+        double s_rhs = shear * velocity_dt(0, k) - z_s * force[k] + jaumann(0, k);
+        for (int l = 1; l < Dim; ++l) s_rhs -= c_s * stress_dt[l](l, k);
+        s_invariant[k] = stress0(0, k) - z_s * velocity0[k] -
+                         c_s * dt * (stress_dn(0, k) - z_s * velocity_dn[k]) + dt * s_rhs;
+      }
+
+      // Incoming invariants from the prescribed velocity or traction.
+      const Vec prescribed =
+          frame.transpose() * condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
+      Mat stress1 = stress0;
+      Vec velocity1;
+      const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
+      for (int k = 0; k < Dim; ++k) {
+        const double invariant = k == 0 ? p_invariant : s_invariant[k];
+        const double impedance = k == 0 ? z_p : z_s;
+        if (velocity_given) {
+          velocity1[k] = prescribed[k];
+          stress1(0, k) = invariant + impedance * prescribed[k];
+        } else {
+          stress1(0, k) = prescribed[k];
+          velocity1[k] = impedance > 0.0 ? (prescribed[k] - invariant) / impedance : 0.0;
+        }
+        stress1(k, 0) = stress1(0, k);
+      }
+
+      // Tangential stresses: the velocity gradient in the frame, with its normal column
+      // recovered from the rates of t_n and t_k, then Hooke and the Jaumann spin.
+      Mat gradient = velocity_dt;  // gradient(i, j) = d v'_i / d x'_j
+      gradient(0, 0) =
+          ((stress1(0, 0) - stress0(0, 0)) / dt - jaumann(0, 0) - lame * tangential_divergence) /
+          modulus;
+      for (int k = 1; k < Dim; ++k)
+        gradient(k, 0) =
+            ((stress1(0, k) - stress0(0, k)) / dt - jaumann(0, k)) / shear - velocity_dt(0, k);
+      const Mat spin = 0.5 * (gradient - gradient.transpose());
+      const Mat rotation_rate = state.objective_rates()
+                                    ? Mat(objective_rotation_rate<Dim>(spin, stress0, dt))
+                                    : Mat(Mat::Zero());
+      const double volumetric = gradient.trace();
+      for (int k = 1; k < Dim; ++k)
+        for (int l = 1; l < Dim; ++l)
+          stress1(k, l) = stress0(k, l) +
+                          dt * ((k == l ? lame * volumetric : 0.0) +
+                                shear * (gradient(k, l) + gradient(l, k)) + rotation_rate(k, l));
+
+      // Density from the same velocity gradient (the full step's one-sided estimate is
+      // replaced, like the rest of the boundary state).
+      if (state.density_follows()) {
+        state.real.density[i] = state.boundary.density[b] * std::exp(-dt * volumetric);
+        state.real.volume[i] = state.real.mass[i] / state.real.density[i];
+      }
+
+      // Back to the global frame.
+      Mat stress_global = frame * stress1 * frame.transpose();
+      if (state.settings.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0)
+        FreeEdge<Dim>::make_uniaxial(state, b, i, n, frame, velocity_dt, dt, stress_global);
+      const Vec velocity_global = frame * velocity1;
+      for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = velocity_global[d];
+      for (int r = 0; r < Dim; ++r)
+        for (int c = r; c < Dim; ++c) state.real.stress[stress_index<Dim>(r, c)][i] = stress_global(r, c);
+      if constexpr (Dim == 2) {  // sigma_zz: plane strain follows lambda tr d; plane stress 0
+        const auto zz = 3;
+        state.real.stress[zz][i] = elastic.plane_mode() == PlaneMode::plane_stress
+                                  ? 0.0
+                                  : state.boundary.stress[b][zz] + dt * lame * volumetric;
+      }
+    }
+  }
+};
+
+}  // namespace tsph

@@ -1,0 +1,137 @@
+// The outward normals of the boundary particles and the surface/interior decision
+// (DESIGN.md section 4): kernel normals -sum_J V_J grad W_IJ, replaced by the face
+// normal where the particle's neighbours under its condition lie on a plane.
+#pragma once
+
+#include "engine/solver/state.hpp"
+#include "kernels/smoothing_kernels.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace tsph {
+
+/// Orthonormal frame whose first column is the unit vector n.
+template <int Dim>
+Matrix<Dim> normal_frame(const Vector<Dim>& n) {
+  Matrix<Dim> frame;
+  frame.col(0) = n;
+  if constexpr (Dim == 2) {
+    frame(0, 1) = -n[1];
+    frame(1, 1) = n[0];
+  } else if constexpr (Dim == 3) {
+    int axis = 0;  // the coordinate axis least aligned with n
+    for (int d = 1; d < 3; ++d)
+      if (std::abs(n[d]) < std::abs(n[axis])) axis = d;
+    Vector<3> e = Vector<3>::Unit(axis);
+    const Vector<3> t1 = (e - e.dot(n) * n).normalized();
+    frame.col(1) = t1;
+    frame.col(2) = n.cross(t1);
+  }
+  return frame;
+}
+
+/// A particle is on a surface when none of its real neighbours lies within 60 degrees
+/// of the outward kernel normal -sum_J V_J grad W_IJ (cosine below this value).
+inline constexpr double kSurfaceCosine = 0.5;
+
+/// The in-plane (Dim x Dim) part of a stress vector as a tensor.
+template <int Dim>
+Matrix<Dim> in_plane(const StressVector<Dim>& s) {
+  return to_tensor<Dim>(s).template topLeftCorner<Dim, Dim>();
+}
+/// Directional derivative (a . grad) of the stress tensor, in-plane part.
+template <int Dim>
+Matrix<Dim> directional(const std::array<Vector<Dim>, stress_component_count<Dim>>& gradient, const Vector<Dim>& a) {
+  StressVector<Dim> s;
+  for (int m = 0; m < stress_component_count<Dim>; ++m) s[m] = gradient[m].dot(a);
+  return in_plane<Dim>(s);
+}
+
+template <int Dim>
+struct BoundaryNormals {
+  using Vec = Vector<Dim>;
+  using Mat = Matrix<Dim>;
+
+  /// The boundary normals n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body)
+  /// from the real set at its current positions (x^n), and at the first build the
+  /// surface/interior decision; rows filtered to the support (within_support).
+  static void compute(SolverState<Dim>& state) {
+    const PointsView<Dim> real_points = points_of<Dim>(state.real);
+    visit_kernel<Dim>(state.settings.kernel, [&](const auto& kernel) {
+      const bool first_build = !state.lists.surface_decided;
+      if (first_build) state.boundary.on_surface.assign(state.boundary.particle.size(), 1);
+      for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
+        const std::uint32_t i = state.boundary.particle[b];
+        const Vec x = state.real.position_of(i);
+        Vec sum = Vec::Zero();
+        for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
+          if (state.within_support(real_points, i, real_points, j))
+            sum += state.real.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - state.real.position_of(j)),
+                                                          state.settings.smoothing_length);
+        const double norm = sum.norm();
+        const Vec kernel_normal = norm > 0.0 ? Vec(-sum / norm) : Vec(Vec::Unit(0));
+        // On a surface no neighbour lies within 60 degrees of the outward normal; inside,
+        // some neighbour always does (a lattice has one every 90 degrees or closer).
+        double most_outward = -1.0;
+        for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
+          if (!state.within_support(real_points, i, real_points, j)) continue;
+          const Vec offset = state.real.position_of(j) - x;
+          most_outward = std::max(most_outward, offset.dot(kernel_normal) / offset.norm());
+        }
+        const bool on_surface = norm > 0.0 && most_outward < kSurfaceCosine;
+        if (first_build) {
+          state.boundary.on_surface[b] = on_surface;
+          const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
+          if (!on_surface && condition.kind == BoundaryCondition<Dim>::Kind::traction)
+            throw std::invalid_argument(
+                "boundary condition '" + condition.name + "': real particle " +
+                std::to_string(state.real.id[i]) +
+                " is inside the body (no free surface there); a traction applies only to "
+                "surface particles: shrink the region to the surface");
+        }
+        state.boundary.normal[b] = face_normal(state, i, kernel_normal);
+      }
+    });
+    state.lists.surface_decided = true;
+  }
+
+  /// The normal of the face a boundary particle's condition applies to: the direction
+  /// of least spread of the particle and its neighbours under the same condition
+  /// (principal components), oriented like `kernel_normal`. Where those particles do
+  /// not lie on a (Dim-1)-plane (an edge between two faces of one condition, a lone
+  /// particle) the kernel normal -sum V grad W is kept. Unlike the kernel normal, this
+  /// gives the face normal at corners and next to them, where half volumes and the
+  /// missing neighbours tilt the kernel sum.
+  static Vec face_normal(const SolverState<Dim>& state, std::uint32_t i, const Vec& kernel_normal) {
+    if constexpr (Dim == 1) {
+      (void)state, (void)i;
+      return kernel_normal;
+    } else {
+      const std::int32_t condition = state.real.boundary[i];
+      const PointsView<Dim> real_points = points_of<Dim>(state.real);
+      std::vector<Vec> points{state.real.position_of(i)};
+      for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
+        if (state.real.boundary[j] == condition && state.within_support(real_points, i, real_points, j))
+          points.push_back(state.real.position_of(j));
+      if (points.size() < static_cast<std::size_t>(Dim)) return kernel_normal;
+      Vec mean = Vec::Zero();
+      for (const Vec& x : points) mean += x;
+      mean /= static_cast<double>(points.size());
+      Mat covariance = Mat::Zero();
+      for (const Vec& x : points) covariance += (x - mean) * (x - mean).transpose();
+      Eigen::SelfAdjointEigenSolver<Mat> eigen(covariance);
+      const auto& spread = eigen.eigenvalues();  // increasing
+      if (!(spread[1] > 0.0) || spread[0] > 0.1 * spread[1]) return kernel_normal;
+      Vec normal = eigen.eigenvectors().col(0);
+      return normal.dot(kernel_normal) >= 0.0 ? normal : Vec(-normal);
+    }
+  }
+};
+
+}  // namespace tsph

@@ -1,0 +1,43 @@
+// SolverSettings::VelocityWall::wall_gradient: the stress of the particles on a
+// prescribed-velocity surface by the bulk update (seed eq. 4) with the velocity
+// gradient taken relative to the wall velocity, so that a virtual velocity that does not
+// vanish at a fixed wall (a rigid rotation about the clamp) is a strain there and meets
+// a stress.
+#pragma once
+
+#include "engine/solver/state.hpp"
+
+#include <cmath>
+
+namespace tsph {
+
+template <int Dim>
+struct WallGradient {
+  using Vec = Vector<Dim>;
+  using Mat = Matrix<Dim>;
+  static constexpr int stress_count = stress_component_count<Dim>;
+
+  /// SolverSettings::VelocityWall::wall_gradient at a prescribed-velocity particle:
+  /// sigma^{n+1} = sigma^n + dt D : grad v^{n+1/2} (seed eq. 4), with the gradient of the
+  /// virtual half-step velocity relative to the prescribed v^{n+1/2} at the particle,
+  ///     sum_J V_J (v_J - v_wall) Gn_IJ = grad v + (v(x_I) - v_wall) (x) sum_J V_J Gn_IJ,
+  /// and v^{n+1} prescribed.
+  template <class Model>
+  static void apply(SolverState<Dim>& state, const Model& model, std::size_t b, std::uint32_t i, const BoundaryCondition<Dim>& condition,
+                           double dt, double t_new) {
+    const Vec wall_half = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new - 0.5 * dt);
+    const Mat gradient = state.boundary.half_velocity_gradient[b] +
+                         (state.boundary.half_velocity[b] - wall_half) * state.boundary.gradient_sum[b].transpose();
+    const StressVector<Dim>& previous = state.boundary.stress[b];
+    const StressVector<Dim> stress = model.update_stress({previous, previous, gradient, dt, state.objective_rates()});
+    for (int m = 0; m < stress_count; ++m) state.real.stress[m][i] = stress[m];
+    const Vec v = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
+    for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = v[d];
+    if (state.density_follows()) {
+      state.real.density[i] = state.boundary.density[b] * std::exp(-dt * gradient.trace());
+      state.real.volume[i] = state.real.mass[i] / state.real.density[i];
+    }
+  }
+};
+
+}  // namespace tsph

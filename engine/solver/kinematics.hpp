@@ -1,0 +1,104 @@
+// Kinematics and virtual motion (DESIGN.md section 3.3): the displacements, and in
+// updated Lagrangian the motion of both sets, in two halves around the full step (the
+// midpoint configuration x^{n+1/2}, then x^{n+1}). The virtual particles move with
+// their half-step velocity and are put back at their material points by the half step
+// (half_step.hpp, place_at_material_point).
+#pragma once
+
+#include "engine/parallel.hpp"
+#include "engine/solver/neighbor_lists.hpp"
+#include "engine/solver/state.hpp"
+
+#include <cmath>
+
+namespace tsph {
+
+template <int Dim>
+struct Motion {
+  /// The first half of the step's motion, before the full step: in updated Lagrangian
+  /// both sets to the midpoint (and the lists searched again there if the skin no
+  /// longer covers the motion), in small strain the first half of the displacement.
+  static void first_half(SolverState<Dim>& state, double dt) {
+    if (state.positions_move()) {
+      move_to_midpoint(state, dt);  // and begin_displacement's update
+      if (state.skin_distance() > 0.0 && NeighborLists<Dim>::outdated(state, dt))
+        NeighborLists<Dim>::search(state);  // lists used at the midpoint
+    } else {
+      begin_displacement(state, dt);
+    }
+  }
+
+  /// The second half, after the stability check: displacements, and in updated
+  /// Lagrangian the positions and the lists (kept while the skin covers the motion).
+  static void second_half(SolverState<Dim>& state, double dt) {
+    move(state, dt);
+    if (state.positions_move()) NeighborLists<Dim>::update_after_move(state, dt);
+  }
+
+  /// Step 1b (updated Lagrangian): both sets to the midpoint configuration x^{n+1/2},
+  /// where the full step takes the velocity gradient L^{n+1/2} (midpoint rule,
+  /// L^{n+1/2} dt = d(x^{n+1} - x^n) / d x^{n+1/2}): virtual particles by dt/2 v^{n+1/2}
+  /// (half their straight path), real ones by dt/2 v^n (a predictor; their position
+  /// enters the full step's kernel weights only, not its linear exactness). Taken at
+  /// x^n instead, the gradient of v^{n+1/2} misses the half step's own motion: in a
+  /// rigid rotation whose stress carries the centripetal acceleration, v^{n+1/2} =
+  /// (omega J - dt/2 omega^2) (x^n - c) has divergence -omega^2 dt, a spurious
+  /// compression that grew the pressure linearly in time (README, objectivity). In the
+  /// midpoint configuration its gradient is skew to O(dt^2). A non-finite velocity
+  /// leaves its particle where it is (the stability monitor reports it). The real set's pass
+  /// also makes begin_displacement's update (the same increment dt/2 v^n).
+  static void move_to_midpoint(SolverState<Dim>& state, double dt) {
+    const double half_dt = 0.5 * dt;
+    parallel_for(state.real.size(), [&](std::size_t i) {
+      for (int d = 0; d < Dim; ++d)
+        if (std::isfinite(state.real.velocity[d][i])) {
+          state.real.position[d][i] += half_dt * state.real.velocity[d][i];
+          state.real.displacement[d][i] += half_dt * state.real.velocity[d][i];
+        }
+    });
+    parallel_for(state.virtual_.size(), [&](std::size_t i) {
+      for (int d = 0; d < Dim; ++d)
+        if (std::isfinite(state.virtual_.velocity[d][i]))
+          state.virtual_.position[d][i] += half_dt * state.virtual_.velocity[d][i];
+    });
+  }
+
+  /// Step 1b in small strain (updated Lagrangian: move_to_midpoint): the first half of
+  /// the displacement update u^{n+1} = u^n + dt/2 (v^n + v^{n+1}), u += dt/2 v^n, made
+  /// before the full step overwrites v^n, so that v^n need not be stored (Dim doubles
+  /// per real particle; memory). The hourglass stiffness reads u^n + dt/2 v^n from here.
+  static void begin_displacement(SolverState<Dim>& state, double dt) {
+    const double half_dt = 0.5 * dt;
+    parallel_for(state.real.size(), [&](std::size_t i) {
+      for (int d = 0; d < Dim; ++d) state.real.displacement[d][i] += half_dt * state.real.velocity[d][i];
+    });
+  }
+
+  /// Step 5: displacements with the mean of v^n and v^{n+1} (the second half, dt/2
+  /// v^{n+1}; begin_displacement added dt/2 v^n); in updated-Lagrangian mode the real
+  /// particles move so, the virtual ones with v^{n+1/2}: both sets are at the midpoint
+  /// configuration (move_to_midpoint), so the real ones take the second half dt/2
+  /// v^{n+1}, the virtual ones dt/2 v^{n+1/2} (and their displacement, if carried,
+  /// dt v^{n+1/2}).
+  static void move(SolverState<Dim>& state, double dt) {
+    const bool moving = state.positions_move();
+    const double half_dt = 0.5 * dt;
+    parallel_for(state.real.size(), [&](std::size_t i) {
+      for (int d = 0; d < Dim; ++d) {
+        state.real.displacement[d][i] += half_dt * state.real.velocity[d][i];
+        if (moving) state.real.position[d][i] += half_dt * state.real.velocity[d][i];
+      }
+    });
+    const bool virtual_displacement = state.virtual_.carries(state.virtual_.displacement);
+    if (moving) {
+      parallel_for(state.virtual_.size(), [&](std::size_t i) {
+        for (int d = 0; d < Dim; ++d) {
+          if (virtual_displacement) state.virtual_.displacement[d][i] += dt * state.virtual_.velocity[d][i];
+          state.virtual_.position[d][i] += half_dt * state.virtual_.velocity[d][i];
+        }
+      });
+    }
+  }
+};
+
+}  // namespace tsph

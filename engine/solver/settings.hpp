@@ -1,0 +1,96 @@
+// What a run of the stepper is told (SolverSettings) and what it counts (SolverCounters).
+// The measurements behind the defaults are in docs/ (docs/architecture.md points to
+// them) and bench/RESULTS.md; here each option says what it does.
+#pragma once
+
+#include "engine/particle_set.hpp"
+#include "kernels/corrected_operators.hpp"
+#include "kernels/smoothing_kernels.hpp"
+#include "neighbor/neighbor_search.hpp"
+#include "neighbor/spatial_order.hpp"
+
+#include <cstdint>
+#include <string_view>
+
+namespace tsph {
+
+/// small_strain: particles stay at their initial positions and the density is fixed
+/// (geometrically linear, the setting of the seed's bar and of its exact solution).
+/// updated_lagrangian: particles move with the material, density follows
+/// d rho/dt = -rho div v, and the stress rate carries the Jaumann terms.
+enum class Kinematics { small_strain, updated_lagrangian };
+
+inline std::string_view to_string(Kinematics k) {
+  return k == Kinematics::small_strain ? "small_strain" : "updated_lagrangian";
+}
+
+template <int Dim>
+struct SolverSettings {
+  double smoothing_length = 0.0;  ///< h; the support radius is 2h
+  KernelKind kernel = KernelKind::cubic_spline;
+  InterpolationKind interpolation = InterpolationKind::linear;
+  Kinematics kinematics = Kinematics::small_strain;
+  Vector<Dim> body_force = Vector<Dim>::Zero();  ///< b, per unit mass
+  /// Velocity damping c (1/s): dv/dt = ... - c v (dynamic relaxation to a static state).
+  double damping = 0.0;
+  /// Surface hourglass filter epsilon in [0, 1): the velocity of every real particle on a
+  /// traction surface is relaxed towards the linear-corrected average of its real
+  /// neighbours, v <- (1 - eps) v + eps vbar (stabilisation/surface_filter.hpp).
+  double hourglass_coefficient = 0.0;
+  /// Hourglass stiffness kappa in [0, 1]: a restoring force on the part of the real
+  /// displacement field that the virtual particles cannot see, k = kappa M / h^2 per unit
+  /// volume (stabilisation/hourglass_stiffness.hpp). 0: off.
+  double hourglass_stiffness = 0.0;
+  /// Stress of the particles on a prescribed-velocity surface (a clamp): by the
+  /// characteristic relations (boundary/characteristics.hpp; exact for the 1D bar), or by
+  /// the bulk update with the velocity gradient taken relative to the wall velocity
+  /// (boundary/wall_gradient.hpp).
+  enum class VelocityWall { characteristics, wall_gradient };
+  VelocityWall velocity_wall = VelocityWall::characteristics;
+  /// Momentum update of the particles without a velocity condition or a load in
+  /// conservative (weak) form, m_I dv_I/dt = -sum_v V_v sigma_v . D_vI
+  /// (boundary/conservative_momentum.hpp). Off by default.
+  bool conservative_momentum = false;
+  /// The tangential velocity gradient of traction-free surface particles extrapolated
+  /// from their virtual stencil's centroid to the surface (stabilisation/
+  /// surface_extrapolation.hpp). Off by default.
+  bool surface_extrapolation = false;
+  /// 3D only: a zero-traction particle on a convex axis-parallel edge takes the uniaxial
+  /// stress along the edge (boundary/free_edge.hpp). Off by default.
+  bool free_edge_uniaxial = false;
+  /// Search of the neighbour lists: cell list, kd-tree, or `automatic` (the rule of
+  /// neighbor/neighbor_search.hpp). Same lists either way.
+  NeighborSearch neighbor_search = NeighborSearch::automatic;
+  /// The full step's real -> virtual list is the transpose of the half step's list
+  /// instead of a second search (both then held at once). Off by default.
+  bool transpose_lists = false;
+  /// Verlet skin of the updated-Lagrangian neighbour lists, a fraction of 2h in [0, 1]:
+  /// lists searched with radius (1 + s) 2h and kept until a pair may have come closer by
+  /// more than s 2h (solver/neighbor_lists.hpp). 0: searched at every use.
+  double neighbor_skin = 0.05;
+  /// Both particle sets are sorted into this order when the mean index spread of the
+  /// virtual -> real rows exceeds `reorder_threshold` times that of the sorted order
+  /// (solver/neighbor_lists.hpp). Sorting renumbers the particles (ids are kept).
+  /// `none` (the default): never sorted.
+  SpatialOrder spatial_order = SpatialOrder::none;
+  double reorder_threshold = 2.0;  ///< > 1
+  /// The virtual set keeps the optional fields of ParticleSet (initial positions,
+  /// displacements, ids, boundary and group tags) for callers that read them. Off: the
+  /// constructor releases those the stepper does not read.
+  bool keep_virtual_fields = false;
+};
+
+/// What the run did; fallbacks are counted per stencil evaluation.
+struct SolverCounters {
+  std::int64_t steps = 0;
+  std::int64_t neighbor_builds = 0;
+  std::int64_t empty_stencils = 0;
+  std::int64_t interpolation_fallbacks = 0;
+  std::int64_t gradient_fallbacks = 0;
+  std::int64_t reorders = 0;  ///< sorts of the particle sets (SolverSettings::spatial_order)
+  /// Checks of the displacement since the last search (SolverSettings::neighbor_skin):
+  /// two per updated-Lagrangian step.
+  std::int64_t skin_checks = 0;
+};
+
+}  // namespace tsph

@@ -1,0 +1,192 @@
+// SolverSettings::hourglass_stiffness: a restoring force on the part of the real
+// displacement field that the virtual particles cannot see (DESIGN.md section 5: the
+// checkerboard and the odd-even columns), zero for every linear displacement field.
+#pragma once
+
+#include "engine/parallel.hpp"
+#include "engine/solver/state.hpp"
+#include "neighbor/cell_list.hpp"
+
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace tsph {
+
+template <int Dim>
+class HourglassStiffness {
+ public:
+  using Vec = Vector<Dim>;
+
+  /// Step 3b: hourglass stiffness (SolverSettings::hourglass_stiffness), a restoring
+  /// force on what the virtual particles cannot see. The scheme sees the real field only
+  /// through its values interpolated to the virtual particles (cell centres) and their
+  /// gradients, so every real field whose cell averages vanish is invisible to the
+  /// stress: the checkerboard (-1)^(i+j), and also (-1)^i f(y) and (-1)^j g(x) (a
+  /// column-wise odd-even u_y is what makes the cantilever creep). The round trip
+  /// RT(u) = R A u measures them: A takes the real displacements to the virtual
+  /// particles (linear least-squares fit over the virtual particle's real neighbours,
+  /// value at X_v), R brings the virtual values back to each real particle (linear
+  /// least-squares fit over the virtual particles within max(2h, 1.75 dx), value at X_I),
+  /// both in the initial coordinates X with kernel weights. Both fits reproduce linear
+  /// fields, so r = u - RT(u) is zero for every linear field (rigid motions included),
+  /// at the boundary too, and equals u for the invisible fields (A u = 0). The force is
+  /// that of the energy
+  ///     E = k/2 sum_I V_I |r_I|^2,   k = kappa M / h^2   (M: P-wave modulus),
+  ///     F_J = -dE/du_J = -k ( V_J r_J - sum_v A_vJ s_v ),   s_v = sum_I V_I r_I R_Iv.
+  /// For a smooth field r = O(dx^2 grad grad u), so F = O(kappa M dx^2 d^4 u): it vanishes
+  /// with the spacing (the one-sided form -k r would be O(kappa M d^2 u), a competing
+  /// elasticity: measured, it makes the cantilever worse). sum_v A_vJ = sum_v R_Iv = 1, so
+  /// sum_J F_J = 0: linear momentum is conserved. Time integration:
+  /// v^{n+1} += dt F(u^n + dt/2 v^n) / m, with the trapezoidal displacement update an
+  /// area-preserving pair, stable for k dt^2 / rho < 4. Particles with a prescribed
+  /// velocity receive no force (their reaction is the constraint's).
+  template <class Kernel>
+  void apply(SolverState<Dim>& state, const Kernel& kernel, double dt) {
+    if (hourglass_list_build_ != state.counters.neighbor_builds) build_lists(state);
+    const double h = state.settings.smoothing_length;
+    const double return_h = 0.5 * hourglass_radius_;  // kernel support = the list radius
+    const double stiffness = state.settings.hourglass_stiffness * state.material.elastic().p_wave_modulus() / (h * h);
+    using Basis = Eigen::Matrix<double, Dim + 1, 1>;
+    using Moments = Eigen::Matrix<double, Dim + 1, Dim + 1>;
+    auto offset = [&](std::uint32_t r, std::uint32_t v) {  // X_r - X_v, initial coordinates
+      Vec dx;
+      for (int d = 0; d < Dim; ++d)
+        dx[d] = state.real.initial_position[d][r] - state.virtual_.initial_position[d][v];
+      return dx;
+    };
+    auto basis = [](const Vec& dx) {
+      Basis p;
+      p[0] = 1.0;
+      p.template tail<Dim>() = dx;
+      return p;
+    };
+    // Linear least-squares fit weights over a stencil, offsets X_source - X_centre; the
+    // neighbours for which keep(k) is false are skipped.
+    auto fit = [&](auto&& neighbours, auto&& dx_of, double kernel_h, auto&& keep) {
+      Moments moments = Moments::Zero();
+      double weight_sum = 0.0;
+      for (std::uint32_t k : neighbours) {
+        if (!keep(k)) continue;
+        const Vec dx = dx_of(k);
+        const Basis p = basis(dx);
+        const double w = kernel.value(dx.norm(), kernel_h);
+        moments += w * p * p.transpose();
+        weight_sum += w;
+      }
+      LinearFitWeights out;
+      if (!(weight_sum > 0.0)) return out;
+      Eigen::FullPivLU<Moments> lu(moments / weight_sum);
+      lu.setThreshold(1e-10);
+      if (!lu.isInvertible()) return out;  // neighbours on a line: no fit, no force
+      out.first_column = lu.inverse().col(0);
+      out.weight_sum = weight_sum;
+      return out;
+    };
+    auto coefficient = [&](const LinearFitWeights& f, const Vec& dx, double kernel_h) {
+      return kernel.value(dx.norm(), kernel_h) / f.weight_sum * f.first_column.dot(basis(dx));
+    };
+    auto displacement = [&](std::uint32_t j) {  // u^n + dt/2 v^n (begin_displacement)
+      Vec u;
+      for (int d = 0; d < Dim; ++d) u[d] = state.real.displacement[d][j];
+      return u;
+    };
+    // The half-step lists with a skin also hold pairs beyond 2h at the current positions
+    // (within_support): the fit and the force skip them (their weights come from the
+    // initial coordinates, so they would not vanish).
+    const PointsView<Dim> real_points = points_of<Dim>(state.real), virtual_points = points_of<Dim>(state.virtual_);
+    const auto every = [](std::uint32_t) { return true; };
+    const std::size_t real_count = state.real.size(), virtual_count = state.virtual_.size();
+    forward_fit_.resize(virtual_count);
+    return_fit_.resize(real_count);
+    virtual_value_.resize(virtual_count);
+    round_trip_residual_.resize(real_count);
+    // A: virtual values a_v = sum_J A_vJ u_J.
+    parallel_for(virtual_count, [&](std::size_t v) {
+      const auto nb = state.lists.virtual_from_real.neighbors(v);
+      const auto vi = static_cast<std::uint32_t>(v);
+      const auto in_support = [&](std::uint32_t j) { return state.within_support(virtual_points, v, real_points, j); };
+      forward_fit_[v] = fit(nb, [&](std::uint32_t j) { return offset(j, vi); }, h, in_support);
+      Vec value = Vec::Zero();
+      if (forward_fit_[v].weight_sum > 0.0)
+        for (std::uint32_t j : nb)
+          if (in_support(j)) value += coefficient(forward_fit_[v], offset(j, vi), h) * displacement(j);
+      virtual_value_[v] = value;
+    });
+    // R: r_I = u_I - sum_v R_Iv a_v, weighted by V_I.
+    parallel_for(real_count, [&](std::size_t i) {
+      const auto nb = hourglass_from_virtual_.neighbors(i);
+      const auto ri = static_cast<std::uint32_t>(i);
+      return_fit_[i] = fit(nb, [&](std::uint32_t v) { return Vec(-offset(ri, v)); }, return_h, every);
+      Vec residual = Vec::Zero();
+      if (return_fit_[i].weight_sum > 0.0) {
+        residual = displacement(ri);
+        for (std::uint32_t v : nb)
+          residual -= coefficient(return_fit_[i], Vec(-offset(ri, v)), return_h) * virtual_value_[v];
+      }
+      round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * residual;
+    });
+    // s_v = sum_I R_Iv V_I r_I (the transposed return trip; reuses virtual_value_).
+    parallel_for(virtual_count, [&](std::size_t v) {
+      Vec sum = Vec::Zero();
+      for (std::uint32_t i : hourglass_to_real_.neighbors(v))
+        if (return_fit_[i].weight_sum > 0.0)
+          sum += coefficient(return_fit_[i], Vec(-offset(i, static_cast<std::uint32_t>(v))), return_h) *
+                 round_trip_residual_[i];
+      virtual_value_[v] = sum;
+    });
+    // F_J = -k (V_J r_J - sum_v A_vJ s_v).
+    parallel_for(real_count, [&](std::size_t j) {
+      if (const std::int32_t b = state.boundary.slot[j]; b >= 0) {
+        const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
+        if (condition.kind == BoundaryCondition<Dim>::Kind::velocity) return;
+      }
+      const auto rj = static_cast<std::uint32_t>(j);
+      Vec force = round_trip_residual_[j];
+      for (std::uint32_t v : state.lists.real_from_virtual.neighbors(j))
+        if (forward_fit_[v].weight_sum > 0.0 && state.within_support(real_points, j, virtual_points, v))
+          force -= coefficient(forward_fit_[v], offset(rj, v), h) * virtual_value_[v];
+      for (int d = 0; d < Dim; ++d) state.real.velocity[d][j] -= dt * stiffness * force[d] / state.real.mass[j];
+    });
+  }
+
+ private:
+
+  /// One linear least-squares fit u(X) ~ a + B (X - X_0) over a stencil (see
+  /// apply): the value a = sum_J c^T p_J (w_J / w) u_J, with
+  /// p_J = (1, X_J - X_0), w = sum_J w_J and c the first column of the inverse of the
+  /// normalised moment matrix sum_J (w_J / w) p_J p_J^T. weight_sum = 0: no fit.
+  struct LinearFitWeights {
+    Eigen::Matrix<double, Dim + 1, 1> first_column = Eigen::Matrix<double, Dim + 1, 1>::Zero();
+    double weight_sum = 0.0;
+  };
+
+  /// The real -> virtual lists of the hourglass stiffness's return trip (and the
+  /// transpose), in the initial coordinates: radius max(2h, 1.75 dx) (dx from the mean virtual volume), so that every
+  /// real particle, corners included, sees Dim + 1 virtual particles off a line.
+  void build_lists(const SolverState<Dim>& state) {
+    double mean_volume = 0.0;
+    for (std::size_t v = 0; v < state.virtual_.size(); ++v) mean_volume += state.virtual_.mass[v] / state.virtual_.density[v];
+    mean_volume /= static_cast<double>(state.virtual_.size());
+    const double spacing = std::pow(mean_volume, 1.0 / Dim);
+    hourglass_radius_ = std::max(state.support_radius(), 1.75 * spacing);
+    const PointsView<Dim> real_points = initial_points_of<Dim>(state.real), virtual_points = initial_points_of<Dim>(state.virtual_);
+    hourglass_from_virtual_ = CellList<Dim>(virtual_points, hourglass_radius_).query(real_points);
+    hourglass_to_real_ = CellList<Dim>(real_points, hourglass_radius_).query(virtual_points);
+    hourglass_list_build_ = state.counters.neighbor_builds;
+  }
+
+  std::vector<LinearFitWeights> forward_fit_;  ///< A, per virtual particle
+  std::vector<LinearFitWeights> return_fit_;   ///< R, per real particle
+  std::vector<Vec> virtual_value_;             ///< a_v, then s_v
+  std::vector<Vec> round_trip_residual_;       ///< V_I r_I
+  NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)
+  NeighborList hourglass_to_real_;       ///< its transpose
+  double hourglass_radius_ = 0.0;
+  std::int64_t hourglass_list_build_ = -1;  ///< SolverCounters::neighbor_builds when built
+};
+
+}  // namespace tsph

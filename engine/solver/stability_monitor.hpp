@@ -1,0 +1,225 @@
+// The stability monitor: after the fields of a step are advanced and before any
+// particle moves, NaN/Inf in either set or a runaway of the total energy stops the run
+// with a diagnosis (SolutionDiverged).
+#pragma once
+
+#include "engine/input_error.hpp"
+#include "engine/parallel.hpp"
+#include "engine/solver/state.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace tsph {
+
+/// The run blew up: NaN/Inf in either particle set or a runaway of the energy. The
+/// message names the step, the time, the first offending particle (id, position) and
+/// the likely cause; the command-line programs exit with status 3 on it.
+class SolutionDiverged : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Runaway energy: the total energy of the real set grows by at least a factor g in each
+/// of K(g) consecutive steps, g^K(g) >= kRunawayFactor, for any g of kRunawayGrowths (or
+/// it overflows). A load switched on at any time whose energy input grows like
+/// (t - t1)^k grows by (1 + 1/m)^k at its m-th step, which stays above g for K(g)
+/// consecutive steps only if k > ln(kRunawayFactor) = 6.9, so no load of degree up to 6
+/// triggers it, while a mode that grows by g or more per step (an unstable CFL: about
+/// 1.45 at CFL 1.05, 12 at CFL 1.5 in the bar) is caught within K(g) steps of
+/// dominating the energy, long before it overflows.
+inline constexpr double kRunawayFactor = 1000.0;
+inline constexpr std::array<double, 3> kRunawayGrowths = {2.0, 1.2, 1.05};
+/// Runaway of an oscillating energy (the per-step rule above misses it): the largest
+/// energy so far, M, grew by kRunawayWindowFactor or more over the last W steps and
+/// over the W before, the later growth at least half the earlier one (an exponential,
+/// whose log is straight; a power (t - t1)^k has a concave log and passes both only for
+/// k > 20), for W of kRunawayWindows.
+inline constexpr double kRunawayWindowFactor = 30.0;
+inline constexpr std::array<int, 2> kRunawayWindows = {20, 100};
+/// A sudden blow-up (the 2D updated-Lagrangian cantilever at its clamp: the energy jumps
+/// x85 in 4 steps, falls back, and overflows 60 steps later): the energy exceeds
+/// kRunawayJumpFactor times the largest energy of the run up to kRunawayJumpSteps steps
+/// before, once the run has carried energy for kRunawayJumpAfter steps (a power
+/// (t - t1)^k of the time since the load started does that only for k > 340).
+inline constexpr double kRunawayJumpFactor = 30.0;
+inline constexpr int kRunawayJumpSteps = 10;
+inline constexpr std::int64_t kRunawayJumpAfter = 1000;
+
+template <int Dim>
+class StabilityMonitor {
+ public:
+  using Vec = Vector<Dim>;
+  static constexpr int stress_count = stress_component_count<Dim>;
+
+  /// NaN/Inf in the velocity or stress of either set, or a runaway of the energy
+  /// (kRunawayGrowths, kRunawayWindows, kRunawayJumpFactor): throws SolutionDiverged
+  /// with the diagnosis.
+  void check(const SolverState<Dim>& state, double dt) {
+    const std::int64_t step = state.counters.steps + 1;
+    auto non_finite = [](const ParticleSet<Dim>& set, std::size_t i) -> const char* {
+      for (int d = 0; d < Dim; ++d)
+        if (!std::isfinite(set.velocity[d][i])) return "velocity";
+      for (int m = 0; m < stress_count; ++m)
+        if (!std::isfinite(set.stress[m][i])) return "stress";
+      return nullptr;
+    };
+    // One parallel pass over fixed blocks of particles (kStabilityBlock, not one per
+    // thread: the energy's sum order, hence its round-off, does not depend on the thread
+    // count): the first non-finite particle of each block and the block's energies,
+    // combined in block order. Was two serial passes (3 % of a 2D step, serial).
+    const std::size_t real_blocks = (state.real.size() + kStabilityBlock - 1) / kStabilityBlock;
+    const std::size_t virtual_blocks = (state.virtual_.size() + kStabilityBlock - 1) / kStabilityBlock;
+    stability_blocks_.resize(real_blocks + virtual_blocks);
+    state.material.visit([&](const auto& model) {  // once, outside the loop
+    parallel_for(real_blocks + virtual_blocks, [&](std::size_t block) {
+      const bool is_real = block < real_blocks;
+      const ParticleSet<Dim>& set = is_real ? state.real : state.virtual_;
+      const std::size_t begin = (is_real ? block : block - real_blocks) * kStabilityBlock;
+      const std::size_t end = std::min(set.size(), begin + kStabilityBlock);
+      StabilityBlock result;
+      for (std::size_t i = begin; i < end; ++i)
+        if (non_finite(set, i) != nullptr) {
+          result.first_non_finite = i;
+          break;
+        }
+      if (is_real)
+        for (std::size_t i = begin; i < end; ++i) {
+          double v2 = 0.0;
+          for (int d = 0; d < Dim; ++d) v2 += set.velocity[d][i] * set.velocity[d][i];
+          result.kinetic += 0.5 * set.mass[i] * v2;
+          result.strain += set.volume[i] * model.strain_energy_density(state.stress_of(set, i));
+        }
+      stability_blocks_[block] = result;
+    });
+    });
+    for (std::size_t block = 0; block < real_blocks + virtual_blocks; ++block)
+      if (const std::size_t i = stability_blocks_[block].first_non_finite; i != kNoParticle) {
+        const ParticleSet<Dim>& set = block < real_blocks ? state.real : state.virtual_;
+        throw SolutionDiverged(diagnosis(state, step, dt, set, i, std::string("has a non-finite ") + non_finite(set, i)));
+      }
+    double kinetic = 0.0, strain = 0.0;
+    for (std::size_t block = 0; block < real_blocks; ++block) {
+      kinetic += stability_blocks_[block].kinetic;
+      strain += stability_blocks_[block].strain;
+    }
+    const double energy = kinetic + strain;
+    std::string runaway = std::isfinite(energy) ? "" : "the total energy overflowed";
+    for (std::size_t k = 0; k < kRunawayGrowths.size(); ++k) {
+      const double g = kRunawayGrowths[k];
+      auto& count = energy_growth_steps_[k];
+      count = previous_energy_ > 0.0 && energy >= g * previous_energy_ ? count + 1 : 0;
+      const int steps = static_cast<int>(std::ceil(std::log(kRunawayFactor) / std::log(g)));
+      if (runaway.empty() && count >= steps)
+        runaway = "the total energy grew by a factor " + format_number(g) + " or more in each of the last " +
+                  std::to_string(steps) + " steps (to " + format_number(energy) + " J)";
+    }
+    const double largest = std::max(largest_energy_.empty() ? 0.0 : largest_energy_.back(), energy);
+    largest_energy_.push_back(largest);  // the last 2 W + 1 values of M
+    if (largest_energy_.size() > 2 * static_cast<std::size_t>(kRunawayWindows.back()) + 1)
+      largest_energy_.erase(largest_energy_.begin());
+    if (largest > 0.0) ++energized_steps_;
+    if (const std::size_t n = largest_energy_.size() - 1, back = kRunawayJumpSteps;
+        runaway.empty() && energized_steps_ > kRunawayJumpAfter && n >= back &&
+        energy >= kRunawayJumpFactor * largest_energy_[n - back])
+      runaway = "the total energy jumped to " + format_number(energy) + " J, x" +
+                format_number(energy / largest_energy_[n - back]) +
+                " the largest of the run until " + std::to_string(kRunawayJumpSteps) +
+                " steps before";
+    for (int w : kRunawayWindows) {
+      const std::size_t n = largest_energy_.size() - 1, window = static_cast<std::size_t>(w);
+      if (!runaway.empty() || n < 2 * window) continue;
+      const double now = largest_energy_[n], before = largest_energy_[n - window],
+                   earlier = largest_energy_[n - 2 * window];
+      if (earlier > 0.0 && before >= kRunawayWindowFactor * earlier &&
+          now >= kRunawayWindowFactor * before && now / before >= 0.5 * (before / earlier))
+        runaway = "the largest energy so far grew steadily, x" + format_number(before / earlier) +
+                  " and then x" + format_number(now / before) + " over two spans of " +
+                  std::to_string(w) + " steps (to " + format_number(now) + " J)";
+    }
+    if (!runaway.empty()) {
+      std::size_t worst = 0;  // the real particle holding the most energy
+      double worst_energy = -1.0;
+      for (std::size_t i = 0; i < state.real.size(); ++i) {
+        const Vec v = state.velocity_of(i);
+        const double e = 0.5 * state.real.mass[i] * v.squaredNorm() +
+                         state.real.volume[i] * state.material.strain_energy_density(state.stress_of(state.real, i));
+        if (e > worst_energy) worst_energy = e, worst = i;
+      }
+      throw SolutionDiverged(
+          diagnosis(state, step, dt, state.real, worst, "holds the most energy of a runaway: " + runaway));
+    }
+    previous_energy_ = energy;
+  }
+
+ private:
+  /// "solver: the solution diverged at step n (t = ...): <set> particle <id> at (x, y)
+  /// <what>; likely cause: ..." The cause, in order: a time step above the stability
+  /// limit (CFL = dt c_p / dx > 1, c_p at the material's reference density, dx from the
+  /// virtual particles' initial volumes), a boundary
+  /// condition (the particle is on a boundary or within the support 2h of one), else
+  /// alpha = h / dx or the kinematics.
+  static std::string diagnosis(const SolverState<Dim>& state, std::int64_t step, double dt, const ParticleSet<Dim>& set, std::size_t i,
+                               const std::string& what) {
+    const bool is_real = &set == &state.real;
+    const Vec x = set.position_of(i);
+    std::string where = "(";
+    for (int d = 0; d < Dim; ++d) where += (d ? ", " : "") + format_number(x[d]);
+    where += ")";
+    const double dx = state.initial_spacing;
+    const double cfl = dt * state.material.p_wave_speed(state.material.reference_density()) / dx;
+    std::string cause;
+    if (cfl > 1.0 + 1e-9) {
+      cause = "the time step: CFL = dt c_p / dx = " + format_number(cfl) +
+              " is above the scheme's stability limit 1; lower cfl";
+    } else {
+      const int near = nearest_boundary(state, x, is_real ? state.real.boundary[i] : ParticleSet<Dim>::kNoBoundary);
+      if (near != ParticleSet<Dim>::kNoBoundary)
+        cause = "the boundary condition '" + state.boundaries[static_cast<std::size_t>(near)].name +
+                "' (the particle is within the support 2h of it): check its kind and values, "
+                "and that a traction acts on a free surface";
+      else
+        cause = "alpha = h / dx = " + format_number(state.settings.smoothing_length / dx) + " or the " +
+                std::string(to_string(state.settings.kinematics)) +
+                " kinematics (stable: alpha 0.6 to 1.2, small_strain; README, Known problems)";
+    }
+    return "solver: the solution diverged at step " + std::to_string(step) + " (t = " +
+           format_number(state.time + dt) + " s): " + (is_real ? "real" : "virtual") + " particle " +
+           std::to_string(set.carries(set.id) ? set.id[i] : i) + " at " + where + " " + what +
+           "; likely cause: " + cause;
+  }
+
+  /// The boundary condition a particle is on (`own`), else that of the nearest boundary
+  /// particle within the support radius, else kNoBoundary.
+  static int nearest_boundary(const SolverState<Dim>& state, const Vec& x, std::int32_t own) {
+    if (own != ParticleSet<Dim>::kNoBoundary) return own;
+    int found = ParticleSet<Dim>::kNoBoundary;
+    double best = state.support_radius() * state.support_radius();
+    for (std::uint32_t b : state.boundary.particle) {
+      const double d2 = (state.real.position_of(b) - x).squaredNorm();
+      if (d2 <= best) best = d2, found = state.real.boundary[b];
+    }
+    return found;
+  }
+
+  /// check's pass: per block of kStabilityBlock particles (real blocks, then
+  /// virtual ones), the first non-finite particle and the real blocks' energies.
+  static constexpr std::size_t kStabilityBlock = 4096;
+  static constexpr std::size_t kNoParticle = static_cast<std::size_t>(-1);
+  struct StabilityBlock {
+    std::size_t first_non_finite = kNoParticle;
+    double kinetic = 0.0, strain = 0.0;
+  };
+  std::vector<StabilityBlock> stability_blocks_;
+  double previous_energy_ = 0.0;   ///< total energy after the last step (check)
+  std::array<int, kRunawayGrowths.size()> energy_growth_steps_{};  ///< consecutive, per growth
+  std::vector<double> largest_energy_;  ///< largest energy so far, after each recent step
+  std::int64_t energized_steps_ = 0;    ///< steps with a positive largest energy
+};
+
+}  // namespace tsph

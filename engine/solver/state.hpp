@@ -1,0 +1,258 @@
+// The state of the stepper: both particle sets, the material, the settings and
+// boundary conditions, the clock and counters, the neighbour lists, and the
+// per-boundary-particle state (one structure of arrays). Every stage of a step
+// (docs/architecture.md) takes this state; scratch stays with the stage that uses it.
+#pragma once
+
+#include "engine/boundary_condition.hpp"
+#include "engine/material/material.hpp"
+#include "engine/particle_set.hpp"
+#include "engine/solver/settings.hpp"
+#include "engine/solver/stencil_evaluation.hpp"
+#include "neighbor/neighbor_list.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace tsph {
+
+/// Per boundary slot (one per real particle with a boundary condition, in increasing
+/// real index): structure of arrays with `for_each_field`, so that `assign` and
+/// `permute` cannot forget a field (the ParticleSet pattern).
+template <int Dim>
+struct BoundaryParticles {
+  using Vec = Vector<Dim>;
+  using Mat = Matrix<Dim>;
+  using StressGradient = std::array<Vec, stress_component_count<Dim>>;
+
+  std::vector<std::uint32_t> particle;   ///< real index of the slot
+  std::vector<Vec> profile;              ///< BoundaryCondition::profile(x0)
+  std::vector<char> on_surface;          ///< decided at the first build of the lists
+  std::vector<Vec> normal;               ///< outward unit normal (boundary/normals.hpp)
+  std::vector<StressVector<Dim>> stress;  ///< sigma^n
+  std::vector<Vec> velocity;             ///< v^n
+  std::vector<double> density;           ///< rho^n
+  std::vector<StressGradient> stress_gradient;       ///< grad sigma^n (real set)
+  std::vector<Mat> velocity_gradient;                ///< grad v^n (real set)
+  std::vector<StressGradient> half_stress_gradient;  ///< grad sigma^{n+1/2} (virtual set)
+  std::vector<Mat> half_velocity_gradient;           ///< grad v^{n+1/2} (virtual set)
+  std::vector<Vec> half_velocity;   ///< v^{n+1/2} interpolated at the particle
+  std::vector<Vec> stencil_offset;  ///< x_I - centroid of its virtual stencil
+  std::vector<Vec> gradient_sum;    ///< sum_J V_J Gn_IJ over its virtual stencil
+  /// Per real particle (not per slot): its slot, or -1.
+  std::vector<std::int32_t> slot;
+
+  std::size_t size() const { return particle.size(); }
+
+  template <class F>
+  void for_each_field(F&& f) {
+    f(particle), f(profile), f(on_surface), f(normal), f(stress), f(velocity), f(density);
+    f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
+    f(half_velocity), f(stencil_offset), f(gradient_sum);
+  }
+
+  /// Sizes every per-step field to the slots of `particle` and zeroes it (Eigen's
+  /// fixed-size types are not initialised by default: a boundary particle whose stencil
+  /// is empty, counted, then reads zero gradients).
+  void zero_step_fields() {
+    const std::size_t n = size();
+    StressGradient zero_gradient;
+    for (auto& g : zero_gradient) g.setZero();
+    on_surface.assign(n, 1);
+    normal.assign(n, Vec::Zero());
+    stress.assign(n, StressVector<Dim>{});
+    velocity.assign(n, Vec::Zero());
+    density.assign(n, 0.0);
+    stress_gradient.assign(n, zero_gradient);
+    velocity_gradient.assign(n, Mat::Zero());
+    half_stress_gradient.assign(n, zero_gradient);
+    half_velocity_gradient.assign(n, Mat::Zero());
+    half_velocity.assign(n, Vec::Zero());
+    stencil_offset.assign(n, Vec::Zero());
+    gradient_sum.assign(n, Vec::Zero());
+  }
+
+  /// Renumbers after the real set was permuted: new_index[old real index] is the new
+  /// index. Slots are kept in increasing real index, every field moves with its slot.
+  void permute(const std::vector<std::uint32_t>& new_index) {
+    std::vector<std::size_t> slot_order(size());  // slot_order[s] = the old slot of new slot s
+    for (std::size_t b = 0; b < slot_order.size(); ++b) slot_order[b] = b;
+    std::sort(slot_order.begin(), slot_order.end(),
+              [&](std::size_t a, std::size_t b) { return new_index[particle[a]] < new_index[particle[b]]; });
+    for_each_field([&slot_order](auto& per_slot) {
+      auto reordered = per_slot;
+      for (std::size_t s = 0; s < slot_order.size(); ++s) reordered[s] = per_slot[slot_order[s]];
+      per_slot.swap(reordered);
+    });
+    for (auto& i : particle) i = new_index[i];
+    slot.assign(new_index.size(), -1);
+    for (std::size_t s = 0; s < size(); ++s) slot[particle[s]] = static_cast<std::int32_t>(s);
+  }
+};
+
+/// The neighbour lists of a step and their bookkeeping (lifecycle: neighbor_lists.hpp).
+struct SolverLists {
+  NeighborList virtual_from_real;  ///< rows: virtual particles; entries: real
+  NeighborList real_from_virtual;  ///< rows: real particles; entries: virtual
+  NeighborList real_from_real;     ///< rows: real (only boundary ones filled); entries: real, self excluded
+  NeighborSearch search_used = NeighborSearch::cell_list;  ///< at the last search
+  double sorted_spread = -1.0;  ///< mean row spread of the sorted order (-1: not known yet)
+  /// Bounds on the path length of any particle of each set since the last search (skin).
+  double real_path_bound = 0.0, virtual_path_bound = 0.0;
+  bool surface_decided = false;  ///< BoundaryParticles::on_surface set (at the first build)
+};
+
+template <int Dim>
+struct SolverState {
+  using Vec = Vector<Dim>;
+  using Mat = Matrix<Dim>;
+  static constexpr int stress_count = stress_component_count<Dim>;
+
+  ParticleSet<Dim> real;
+  ParticleSet<Dim> virtual_;
+  Material<Dim> material;  ///< the stress update (engine/material/material.hpp)
+  SolverSettings<Dim> settings;
+  std::vector<BoundaryCondition<Dim>> boundaries;
+  double time = 0.0;
+  SolverCounters counters;
+  double initial_spacing = 0.0;  ///< (mean initial virtual volume)^(1/Dim)
+  SolverLists lists;
+  BoundaryParticles<Dim> boundary;
+
+  /// Checks the settings and both sets, releases the virtual fields the run does not
+  /// read, and fills the boundary slots. The lists are built by the solver.
+  SolverState(ParticleSet<Dim> real_set, ParticleSet<Dim> virtual_set, Material<Dim> model,
+              SolverSettings<Dim> run_settings, std::vector<BoundaryCondition<Dim>> conditions)
+      : real(std::move(real_set)),
+        virtual_(std::move(virtual_set)),
+        material(std::move(model)),
+        settings(std::move(run_settings)),
+        boundaries(std::move(conditions)) {
+    check_settings();
+    real.check_field_sizes("solver: the real set");
+    virtual_.check_field_sizes("solver: the virtual set");
+    if (!real.carries(real.initial_position) || !real.carries(real.displacement) || !real.carries(real.id) ||
+        !real.carries(real.boundary))
+      throw std::invalid_argument("solver: the real set must carry its initial positions, displacements, "
+                                  "ids and boundary tags (released optional fields)");
+    // The virtual initial positions X_v: read by the hourglass stiffness and by the
+    // updated-Lagrangian virtual motion (half_step.hpp, place_at_material_point).
+    const bool virtual_initial_positions =
+        settings.hourglass_stiffness > 0.0 || settings.keep_virtual_fields || positions_move();
+    if (settings.keep_virtual_fields
+            ? !(virtual_.carries(virtual_.initial_position) && virtual_.carries(virtual_.displacement) &&
+                virtual_.carries(virtual_.id) && virtual_.carries(virtual_.boundary) &&
+                virtual_.carries(virtual_.group))
+            : virtual_initial_positions && !virtual_.carries(virtual_.initial_position))
+      throw std::invalid_argument(
+          "solver: the virtual set has released optional fields that this run reads (the initial "
+          "positions for the hourglass stiffness or the updated-Lagrangian virtual motion, or every field with "
+          "keep_virtual_fields)");
+    if (!settings.keep_virtual_fields) virtual_.release_optional_fields(virtual_initial_positions);
+    boundary.slot.assign(real.size(), -1);
+    for (std::size_t i = 0; i < real.size(); ++i) {
+      const std::int32_t b = real.boundary[i];
+      if (b == ParticleSet<Dim>::kNoBoundary) continue;
+      if (b < 0 || static_cast<std::size_t>(b) >= boundaries.size())
+        throw std::invalid_argument("solver: real particle " + std::to_string(i) + " refers to boundary condition " +
+                                    std::to_string(b) + " of " + std::to_string(boundaries.size()));
+      boundary.slot[i] = static_cast<std::int32_t>(boundary.particle.size());
+      boundary.particle.push_back(static_cast<std::uint32_t>(i));
+      boundary.profile.push_back(boundaries[static_cast<std::size_t>(b)].profile(initial_position_of(i)));
+    }
+    boundary.zero_step_fields();
+    double virtual_volume = 0.0;  // dx of the CFL in a diagnosis (stability_monitor.hpp)
+    for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.volume[q];
+    initial_spacing = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
+  }
+
+  double support_radius() const { return kSupportFactor * settings.smoothing_length; }
+  /// Updated Lagrangian: the particles move.
+  bool positions_move() const { return settings.kinematics == Kinematics::updated_lagrangian; }
+  /// Updated Lagrangian: the stress rate carries the Jaumann terms.
+  bool objective_rates() const { return settings.kinematics == Kinematics::updated_lagrangian; }
+  /// Updated Lagrangian: d rho / dt = -rho div v.
+  bool density_follows() const { return settings.kinematics == Kinematics::updated_lagrangian; }
+  /// The skin in length units (SolverSettings::neighbor_skin x 2h), 0 in small strain.
+  double skin_distance() const { return positions_move() ? settings.neighbor_skin * support_radius() : 0.0; }
+  /// Radius of the neighbour searches: 2h plus the skin.
+  double list_radius() const { return support_radius() + skin_distance(); }
+
+  /// In updated-Lagrangian runs without skin each half-step list is rebuilt every step
+  /// and used once, so only one is held at a time: virtual_from_real from the rebuild to
+  /// the half step, real_from_virtual built at the start of the full step (half the
+  /// memory of the lists). Not with the hourglass stiffness, which reads both lists
+  /// after the full step; the full step then uses the list built at n, with the midpoint
+  /// positions.
+  bool lists_used_once() const {
+    return positions_move() && settings.hourglass_stiffness == 0.0 && skin_distance() == 0.0;
+  }
+
+  /// Whether the pair (a_i, b_j) of a neighbour row lies within the support 2h. Without
+  /// skin every row holds only such pairs; with a skin, rows also hold pairs up to
+  /// 2h + skin, which every use of a row that does not go through kernel weights (those
+  /// are exactly 0 beyond 2h) must skip.
+  bool within_support(const PointsView<Dim>& a, std::size_t i, const PointsView<Dim>& b, std::size_t j) const {
+    if (skin_distance() == 0.0) return true;
+    const double radius = support_radius();
+    return squared_distance<Dim>(a, i, b, j) <= radius * radius;
+  }
+
+  static StressVector<Dim> stress_of(const ParticleSet<Dim>& set, std::size_t i) {
+    StressVector<Dim> s;
+    for (int c = 0; c < stress_count; ++c) s[c] = set.stress[c][i];
+    return s;
+  }
+  Vec initial_position_of(std::size_t i) const {
+    Vec x;
+    for (int d = 0; d < Dim; ++d) x[d] = real.initial_position[d][i];
+    return x;
+  }
+  Vec velocity_of(std::size_t i) const {
+    Vec v;
+    for (int d = 0; d < Dim; ++d) v[d] = real.velocity[d][i];
+    return v;
+  }
+  /// The boundary condition of a real particle that has one.
+  const BoundaryCondition<Dim>& condition_of(std::size_t i) const {
+    return boundaries[static_cast<std::size_t>(real.boundary[i])];
+  }
+
+  void add(const StencilCounts& counts) {
+    counters.empty_stencils += counts.empty;
+    counters.interpolation_fallbacks += counts.interpolation;
+    counters.gradient_fallbacks += counts.gradient;
+  }
+
+ private:
+  void check_settings() const {
+    if (!(settings.smoothing_length > 0.0) || !std::isfinite(settings.smoothing_length))
+      throw std::invalid_argument("solver: smoothing length h = " + std::to_string(settings.smoothing_length) +
+                                  " must be positive");
+    if (!(settings.damping >= 0.0) || !std::isfinite(settings.damping))
+      throw std::invalid_argument("solver: damping = " + std::to_string(settings.damping) + " must be >= 0");
+    if (!(settings.hourglass_coefficient >= 0.0 && settings.hourglass_coefficient < 1.0))
+      throw std::invalid_argument("solver: hourglass coefficient = " +
+                                  std::to_string(settings.hourglass_coefficient) + " must lie in [0, 1)");
+    if (!(settings.hourglass_stiffness >= 0.0 && settings.hourglass_stiffness <= 1.0))
+      throw std::invalid_argument("solver: hourglass stiffness = " + std::to_string(settings.hourglass_stiffness) +
+                                  " must lie in [0, 1]");
+    if (!(settings.reorder_threshold > 1.0) || !std::isfinite(settings.reorder_threshold))
+      throw std::invalid_argument("solver: reorder threshold = " + std::to_string(settings.reorder_threshold) +
+                                  " must be > 1");
+    if (!(settings.neighbor_skin >= 0.0 && settings.neighbor_skin <= 1.0))
+      throw std::invalid_argument("solver: neighbour skin = " + std::to_string(settings.neighbor_skin) +
+                                  " must lie in [0, 1] (a fraction of the support radius 2h)");
+    if (real.size() == 0 || virtual_.size() == 0)
+      throw std::invalid_argument("solver: needs at least one real and one virtual particle");
+    if (settings.free_edge_uniaxial && Dim != 3)
+      throw std::invalid_argument("solver: free_edge_uniaxial applies to the edges of 3D bodies only (dimension " +
+                                  std::to_string(Dim) + ")");
+  }
+};
+
+}  // namespace tsph
