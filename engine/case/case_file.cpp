@@ -1,14 +1,19 @@
 #include "engine/case/case_file.hpp"
 
 #include "engine/input_error.hpp"
+#include "engine/case/case_checks.hpp"  // issue 15: checks of the whole case
+#include "engine/threads.hpp"           // issue 15: the one thread-count rule
 
 #include <toml++/toml.h>
 
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <optional>
 #include <sstream>
@@ -201,7 +206,8 @@ class Table {
   std::optional<std::vector<double>> numbers(const std::string& key, bool required,
                                              std::size_t size, const std::string& what) {
     std::string example = "[";
-    for (std::size_t k = 0; k < std::max<std::size_t>(size, 1); ++k) example += k ? ", 0.0" : "0.0";
+    const bool unit = key == "normal" || key == "direction";  // issue 15: a valid example (non-zero)
+    for (std::size_t k = 0; k < std::max<std::size_t>(size, 1); ++k) example += k ? ", 0.0" : unit ? "1.0" : "0.0";
     example += "]";
     const toml::node* node = get(key, required, example);
     if (!node) return std::nullopt;
@@ -268,7 +274,7 @@ class Table {
     std::vector<Table> out;
     if (!node) return out;
     const toml::array* array = node->as_array();
-    if (!array || !array->is_array_of_tables()) {
+    if (!array || (!array->empty() && !array->is_array_of_tables())) {  // issue 15: [] is reported by the caller
       context_.invalid(node, path(key), "must be an array of tables: write each as [[" + path(key) + "]]");
       return out;
     }
@@ -431,6 +437,8 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
                        (std::filesystem::exists(path, ec) ? "not a regular file" : "no such file") +
                        "): check the path"});
   }
+  if (std::ifstream readable(path); !readable)  // issue 15: not a TOML error at 0:0
+    throw CaseError({path + ": case file cannot be read (" + std::strerror(errno) + "): check its permissions"});
   try {
     root = toml::parse_file(path);
   } catch (const toml::parse_error& e) {
@@ -451,8 +459,8 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
                   "must be 1, 2 or 3").value_or(0));
   const auto dim = static_cast<std::size_t>(c.dimension);  // 0 when invalid: sizes unchecked
   c.threads = static_cast<int>(
-      top.integer("threads", false, "2", [](std::int64_t n) { return n >= 0 && n <= 4096; },
-                  "must lie in [0, 4096] (0: the OpenMP default)").value_or(0));
+      top.integer("threads", false, "2", [](std::int64_t n) { return !thread_count_error("threads", n); },
+                  thread_count_rule()).value_or(0));
 
   {  // [geometry]
     Table g = top.table("geometry", true);
@@ -565,7 +573,7 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     c.end_time = t.real("end", true, "7.5e-3", positive, kPositive + " (s)").value_or(0.0);
     const bool has_cfl = t.has("cfl"), has_dt = t.has("dt");
     c.cfl = t.real("cfl", false, "0.9", [](double v) { return v > 0.0 && v <= 1.0; },
-                   "must lie in (0, 1]: the two-step scheme is unstable above CFL 1").value_or(0.0);
+                   "must lie in (0, 1]: positive (dt = cfl dx / c_p), and at most 1 (the two-step scheme is unstable above CFL 1)").value_or(0.0);
     c.dt = t.real("dt", false, "1e-5", positive, kPositive + " (s)").value_or(0.0);
     if (has_cfl && has_dt)
       context.errors.push_back(context.where(t.get("dt", false, "")) +
@@ -700,6 +708,7 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
     context.errors.push_back(path + ": damping.rest_probe = '" + c.rest_probe +
                              "' is invalid: name one of the [[output.probe]] entries");
   top.finish();
+  for (auto& m : whole_case_errors(c)) context.errors.push_back(std::move(m));  // issue 15
   if (!context.errors.empty()) throw CaseError(context.errors);
   return c;
 }
