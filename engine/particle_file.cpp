@@ -117,17 +117,17 @@ std::vector<std::string> stress_columns() {
 std::optional<std::string> particle_file_problem(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0)
-    return std::string("cannot read it (") + std::strerror(errno) + "): check the path";
-  if (S_ISDIR(st.st_mode)) return std::string("it is a directory: name a CSV file of particles");
+    return std::string("cannot be opened (") + std::strerror(errno) + "): check the path and its permissions";
+  if (S_ISDIR(st.st_mode)) return std::string("is a directory: name a CSV file of particles");
   if (!S_ISREG(st.st_mode))
-    return std::string("it is not a regular file (") +
+    return std::string("is not a regular file (") +
            (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device" : S_ISFIFO(st.st_mode) ? "a FIFO" : "a socket or other special file") +
            "): name a CSV file of particles";
   if (::access(path.c_str(), R_OK) != 0)
-    return std::string("cannot read it (") + std::strerror(errno) + "): check its permissions";
-  if (st.st_size == 0) return std::string("it is empty: it needs a header line (x,y,...) and one line per particle");
+    return std::string("cannot be opened (") + std::strerror(errno) + "): check the path and its permissions";
+  if (st.st_size == 0) return std::string("is empty: it needs a header line (x,y,...) and one line per particle");
   if (static_cast<std::uintmax_t>(st.st_size) > kMaxParticleFileBytes)
-    return "it holds " + std::to_string(st.st_size) + " bytes, more than the " +
+    return "holds " + std::to_string(st.st_size) + " bytes, more than the " +
            std::to_string(kMaxParticleFileBytes >> 30) + " GiB a particle file may hold: use a coarser particle set";
   return std::nullopt;
 }
@@ -139,7 +139,7 @@ ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, doub
   require_positive(errors, "density", density);
   throw_if_invalid(errors);
   if (const auto problem = particle_file_problem(path))
-    throw std::invalid_argument("particle file '" + path + "': " + *problem);
+    throw std::invalid_argument("particle file '" + path + "' " + *problem);
   std::ifstream in(path);
   if (!in)
     throw std::invalid_argument("particle file '" + path +

@@ -162,7 +162,7 @@ EOF
 mkfifo fifo.csv
 mkdir dir.csv
 for special in /dev/urandom /dev/zero "$work/dir.csv" "$work/fifo.csv"; do
-  expect 2 "geometry\.particle_file = '$special' is invalid: it (is not a regular file|is a directory)" \
+  expect 2 "geometry\.particle_file = '$special' is invalid: the file (is not a regular file|is a directory)" \
     timeout 20 "$tsph" check file.toml --set "geometry.particle_file=\"$special\""
 done
 

@@ -7,6 +7,7 @@
 #include <fmt/core.h>
 
 #include <cmath>
+#include <filesystem>
 #include <map>
 
 namespace tsph {
@@ -34,9 +35,12 @@ std::vector<std::string> whole_case_errors(const CaseFile& c) {
                                    "(each probe writes probe_<name>.csv): give every probe its own name",
                                    c.path, k, c.probes[k].name, it->second));
   }
-  if (!c.particle_file.empty())
+  // A special file is refused here, before the resource estimate reads the file; a
+  // missing one is reported by the reader when the case is built (as before).
+  std::error_code ec;
+  if (!c.particle_file.empty() && std::filesystem::exists(c.particle_file, ec))
     if (const auto problem = particle_file_problem(c.particle_file))
-      errors.push_back(c.path + ": geometry.particle_file = '" + c.particle_file + "' is invalid: " + *problem);
+      errors.push_back(c.path + ": geometry.particle_file = '" + c.particle_file + "' is invalid: the file " + *problem);
 
   // The step count, from the resolved dt (build_case: cfl dx / c_p, or time.dt).
   const bool material_valid = c.dimension >= 1 && c.dimension <= 3 && c.young_modulus > 0.0 && c.density > 0.0 &&

@@ -11,10 +11,10 @@
 
 namespace tsph {
 
-/// The most time steps a run may take: 1e12 (at 1e8 particle-steps/s, one particle
-/// would take three hours per 1e12 steps; the int64 step counter and the double time
-/// stay exact far beyond). time.end = 1e20 at dt = 1e-5 would need 1e25.
-inline constexpr double kMaxSteps = 1e12;
+/// The most time steps a run may take: 1e15. The run's time t advances by dt only while
+/// t / dt stays well below 2^53 (9.0e15, the doubles' integer range), and the int64 step
+/// counter overflows at 9.2e18. time.end = 1e20 at dt = 5e-5 would need 2e24.
+inline constexpr double kMaxSteps = 1e15;
 
 /// One message per problem ("FILE: key = value is invalid: rule; fix"), or none.
 std::vector<std::string> whole_case_errors(const CaseFile& c);

@@ -653,6 +653,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     std::erase_if(virtual_series, [&](const output::PvdEntry& e) { return !fs::exists(out / e.file); });
   }
   std::vector<std::string> checkpoints;  // written by this run, newest last; two are kept
+  const std::string physics = physics_record(c);  // issue 15: a restart compares it with its case
   auto write_checkpoint = [&] {
     writer.finish();  // the frames it lists are on disk first
     output::Checkpoint<Dim> k;
@@ -664,7 +665,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     k.real_series = real_series;
     k.virtual_series = virtual_series;
     for (const auto& e : report.errors) k.errors.push_back({e.time, e.name, e.value});
-    k.physics = physics_record(c);  // issue 15: a restart compares it with its case
+    k.physics = physics;
     const fs::path path = out / fmt::format("checkpoint_{:010d}.bin", k.steps);
     output::write_checkpoint((path).string(), k);
     prune_checkpoints(out.string(), path.string());  // issue 15: also those from before a restart

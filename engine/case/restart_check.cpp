@@ -34,8 +34,14 @@ class Record {
 std::string file_fingerprint(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return "unreadable";
-  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return fmt::format("{} bytes, crc32 {}", bytes.size(), output::detail::crc32_of(bytes.data(), bytes.size()));
+  std::vector<char> piece(std::size_t{1} << 20);  // in pieces: the file may be large
+  std::uint64_t bytes = 0;
+  uLong crc = ::crc32(0L, Z_NULL, 0);
+  while (in.read(piece.data(), static_cast<std::streamsize>(piece.size())) || in.gcount() > 0) {
+    crc = ::crc32(crc, reinterpret_cast<const Bytef*>(piece.data()), static_cast<uInt>(in.gcount()));
+    bytes += static_cast<std::uint64_t>(in.gcount());
+  }
+  return fmt::format("{} bytes, crc32 {}", bytes, crc);
 }
 
 std::map<std::string, std::string> parse_record(const std::string& record) {
