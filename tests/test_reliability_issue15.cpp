@@ -296,8 +296,9 @@ std::optional<std::pair<std::size_t, std::size_t>> brute_force_pair(const std::v
 
 TEST(ParticleFileChecks, DuplicateCheckAgreesWithBruteForce) {
   std::mt19937 random(15);
+  int refused = 0, accepted = 0;
   for (int trial = 0; trial < 300; ++trial) {
-    std::uniform_real_distribution<double> coordinate(-1.0, 1.0 + trial * 0.02);
+    std::uniform_real_distribution<double> coordinate(0.0, 0.3 + trial * 0.01);
     std::vector<std::array<double, 2>> points(2 + static_cast<std::size_t>(trial % 40));
     std::string text = "x,y\n";
     for (auto& p : points) {
@@ -309,13 +310,18 @@ TEST(ParticleFileChecks, DuplicateCheckAgreesWithBruteForce) {
     try {
       (void)read_particle_csv<2>(in, "p.csv", 0.1, 1000.0);
       EXPECT_FALSE(expected) << "trial " << trial << ": a close pair was missed";
+      ++accepted;
     } catch (const std::invalid_argument& e) {
       ASSERT_TRUE(expected) << "trial " << trial << ": " << e.what();
+      ++refused;
       const std::string lines = "lines " + std::to_string(expected->first + 2) + " and " +
                                 std::to_string(expected->second + 2) + " are closer";
       EXPECT_NE(std::string(e.what()).find(lines), std::string::npos) << e.what() << " (expected " << lines << ")";
     }
   }
+  EXPECT_GT(refused, 30);  // both outcomes are exercised
+  EXPECT_GT(accepted, 30);
+  std::printf("duplicate check: %d sets refused, %d accepted, as brute force\n", refused, accepted);
 }
 
 TEST(ParticleFileChecks, MillionParticlesAnsweredInSeconds) {
