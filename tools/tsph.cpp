@@ -9,7 +9,7 @@
 // whose estimated memory or output size exceeds the machine's), 3 the run diverged or
 // did not come to rest, 1 other failure: an output file that cannot be written (disk
 // full, permission; the frames and checkpoint written before are kept) or a run
-// stopped by SIGINT/SIGTERM (which still writes its last frame and summary.json).
+// stopped by SIGINT/SIGTERM/SIGHUP (which still writes its last frame and summary.json).
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/case/failure_summary.hpp"  // issue 15
