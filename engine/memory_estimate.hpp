@@ -42,6 +42,9 @@
 #include <string>
 #include <utility>
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 namespace tsph {
 
 template <int Dim>
@@ -91,9 +94,23 @@ inline std::size_t read_cgroup_bytes(const char* path) {
   }
 }
 
-/// Memory a run may use: the smaller of MemAvailable and what the control group's limit
-/// leaves (cgroup v2 memory.max - memory.current, or v1 limit_in_bytes - usage_in_bytes);
-/// 0 if neither is known. Writes where the limit comes from to `source` if given.
+/// What the address-space limit (RLIMIT_AS, `ulimit -v`) leaves this process: the
+/// limit less the address space already mapped (/proc/self/statm); 0 if unlimited.
+inline std::size_t address_space_left_bytes() {
+  struct rlimit limit {};
+  if (::getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return 0;
+  std::ifstream statm("/proc/self/statm");
+  std::size_t pages = 0;
+  statm >> pages;
+  const std::size_t mapped = pages * static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+  const auto cap = static_cast<std::size_t>(limit.rlim_cur);
+  return cap > mapped ? cap - mapped : 1;  // 1: nothing left (0 would mean unknown)
+}
+
+/// Memory a run may use: the smallest of MemAvailable, what the control group's limit
+/// leaves (cgroup v2 memory.max - memory.current, or v1 limit_in_bytes - usage_in_bytes)
+/// and what the address-space limit leaves (RLIMIT_AS, issue 15); 0 if none is known.
+/// Writes where the limit comes from to `source` if given.
 inline std::size_t memory_limit_bytes(std::string* source = nullptr) {
   std::size_t limit = available_memory_bytes();
   if (source) *source = "MemAvailable in /proc/meminfo";
@@ -110,6 +127,10 @@ inline std::size_t memory_limit_bytes(std::string* source = nullptr) {
       if (source) *source = std::string("the control group's limit (") + max_path + ")";
     }
     break;
+  }
+  if (const std::size_t left = address_space_left_bytes(); left > 0 && (limit == 0 || left < limit)) {
+    limit = left;
+    if (source) *source = "the address-space limit RLIMIT_AS (ulimit -v) less what this process has mapped";
   }
   return limit;
 }

@@ -1,10 +1,14 @@
 #include "engine/particle_file.hpp"
 
 #include "engine/input_error.hpp"
-#include "neighbor/cell_list.hpp"
 
+#include <algorithm>
 #include <array>
+#include <cerrno>
 #include <charconv>
+#include <cstring>
+#include <filesystem>
+#include <numeric>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -12,6 +16,9 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include <sys/stat.h>
+#include <unistd.h>
 
 namespace tsph {
 namespace {
@@ -30,6 +37,74 @@ std::vector<std::string> split(std::string line) {
   return fields;
 }
 
+/// Whether every field of a line reads as a number (a data line, not a header).
+bool all_numbers(const std::vector<std::string>& fields) {
+  for (const auto& f : fields) {
+    double value = 0.0;
+    const auto r = std::from_chars(f.data(), f.data() + f.size(), value);
+    if (f.empty() || r.ec != std::errc() || r.ptr != f.data() + f.size()) return false;
+  }
+  return !fields.empty();
+}
+
+/// The first pair (i, j), i < j in file order with the smallest i, of particles closer
+/// than `radius`; nothing if there is none. Particles are sorted by their cell of side
+/// `radius` (so a close pair lies in the same or adjacent cells); each particle is
+/// compared with those of the 3^Dim cells around its own.
+template <int Dim>
+std::optional<std::pair<std::size_t, std::size_t>> first_close_pair(const ParticleSet<Dim>& set, double radius) {
+  using Cell = std::array<std::int64_t, Dim>;
+  const std::size_t n = set.size();
+  std::vector<Cell> cell(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < Dim; ++d) {
+      // Clamped: far-off coordinates share the outermost cells, which stays correct
+      // (the distance decides) and only costs comparisons.
+      const double q = std::clamp(std::floor(set.position[d][i] / radius), -4e18, 4e18);
+      cell[i][static_cast<std::size_t>(d)] = static_cast<std::int64_t>(q);
+    }
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return cell[a] != cell[b] ? cell[a] < cell[b] : a < b;
+  });
+  const double r2 = radius * radius;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::optional<std::size_t> best;
+    std::array<std::int64_t, Dim> offset;
+    offset.fill(-1);
+    for (;;) {
+      Cell c = cell[i];
+      bool representable = true;
+      for (int d = 0; d < Dim; ++d) {
+        const auto k = static_cast<std::size_t>(d);
+        representable = representable && !(offset[k] < 0 && c[k] == INT64_MIN) && !(offset[k] > 0 && c[k] == INT64_MAX);
+        c[k] += offset[k];
+      }
+      if (representable) {
+        auto it = std::lower_bound(order.begin(), order.end(), c,
+                                   [&](std::uint32_t a, const Cell& key) { return cell[a] < key; });
+        for (; it != order.end() && cell[*it] == c; ++it) {
+          const std::size_t j = *it;
+          if (j == i || (best && j >= *best)) continue;
+          double distance2 = 0.0;
+          for (int d = 0; d < Dim; ++d) {
+            const double e = set.position[d][i] - set.position[d][j];
+            distance2 += e * e;
+          }
+          if (distance2 <= r2) best = j;  // as the cell lists: within the radius
+        }
+      }
+      int d = 0;  // next offset in {-1, 0, 1}^Dim
+      while (d < Dim && offset[static_cast<std::size_t>(d)] == 1) offset[static_cast<std::size_t>(d++)] = -1;
+      if (d == Dim) break;
+      ++offset[static_cast<std::size_t>(d)];
+    }
+    if (best) return std::make_pair(std::min(i, *best), std::max(i, *best));
+  }
+  return std::nullopt;
+}
+
 template <int Dim>
 std::vector<std::string> stress_columns() {
   if constexpr (Dim == 1) return {"sxx"};
@@ -39,12 +114,32 @@ std::vector<std::string> stress_columns() {
 
 }  // namespace
 
+std::optional<std::string> particle_file_problem(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    return std::string("cannot be opened (") + std::strerror(errno) + "): check the path and its permissions";
+  if (S_ISDIR(st.st_mode)) return std::string("is a directory: name a CSV file of particles");
+  if (!S_ISREG(st.st_mode))
+    return std::string("is not a regular file (") +
+           (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device" : S_ISFIFO(st.st_mode) ? "a FIFO" : "a socket or other special file") +
+           "): name a CSV file of particles";
+  if (::access(path.c_str(), R_OK) != 0)
+    return std::string("cannot be opened (") + std::strerror(errno) + "): check the path and its permissions";
+  if (st.st_size == 0) return std::string("is empty: it needs a header line (x,y,...) and one line per particle");
+  if (static_cast<std::uintmax_t>(st.st_size) > kMaxParticleFileBytes)
+    return "holds " + std::to_string(st.st_size) + " bytes, more than the " +
+           std::to_string(kMaxParticleFileBytes >> 30) + " GiB a particle file may hold: use a coarser particle set";
+  return std::nullopt;
+}
+
 template <int Dim>
 ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, double density) {
   std::vector<InputError> errors;
   require_positive(errors, "dx", spacing);
   require_positive(errors, "density", density);
   throw_if_invalid(errors);
+  if (const auto problem = particle_file_problem(path))
+    throw std::invalid_argument("particle file '" + path + "' " + *problem);
   std::ifstream in(path);
   if (!in)
     throw std::invalid_argument("particle file '" + path +
@@ -84,6 +179,13 @@ ParticleSet<Dim> read_particle_csv(std::istream& in, const std::string& path, do
   }
   const std::string where = "particle file '" + path + "'";
   if (names.empty()) throw std::invalid_argument(where + " is empty: it needs a header line");
+  if (all_numbers(names)) {
+    std::string header;
+    for (int d = 0; d < Dim; ++d) header += std::string(d ? "," : "") + axes[static_cast<std::size_t>(d)];
+    throw std::invalid_argument(where + ", line " + std::to_string(line_number) +
+                                ": the header line is missing (this line holds numbers): add a first line "
+                                "naming the columns, e.g. '" + header + "'");
+  }
   std::array<bool, Dim> has_axis{};
   for (std::size_t c = 0; c < names.size(); ++c)
     for (std::size_t e = 0; e < c; ++e)
@@ -156,16 +258,10 @@ ParticleSet<Dim> read_particle_csv(std::istream& in, const std::string& path, do
   if (set.size() == 0) throw std::invalid_argument(where + " holds no particle");
 
   // Duplicated or overlapping particles: any pair closer than dx / 2.
-  const PointsView<Dim> points = points_of<Dim>(set);
-  const NeighborList close = CellList<Dim>(points, 0.5 * spacing).query(points);
-  for (std::size_t i = 0; i < set.size(); ++i)
-    for (std::uint32_t j : close.neighbors(i))
-      if (j != i)
-        throw std::invalid_argument(where + ": the particles of lines " +
-                                    std::to_string(line_of[std::min<std::size_t>(i, j)]) + " and " +
-                                    std::to_string(line_of[std::max<std::size_t>(i, j)]) +
-                                    " are closer than dx / 2 = " + format_number(0.5 * spacing) +
-                                    " (duplicated or overlapping)");
+  if (const auto pair = first_close_pair(set, 0.5 * spacing))
+    throw std::invalid_argument(where + ": the particles of lines " + std::to_string(line_of[pair->first]) + " and " +
+                                std::to_string(line_of[pair->second]) + " are closer than dx / 2 = " +
+                                format_number(0.5 * spacing) + " (duplicated or overlapping)");
   return set;
 }
 

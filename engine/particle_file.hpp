@@ -14,14 +14,27 @@
 
 #include "engine/particle_set.hpp"
 
+#include <cstdint>
 #include <istream>
+#include <optional>
 #include <string>
 
 namespace tsph {
 
+/// The largest particle file read: 16 GiB (about 4e7 particles with every column).
+inline constexpr std::uintmax_t kMaxParticleFileBytes = std::uintmax_t{16} << 30;
+
+/// Why `path` cannot be a particle file (missing, unreadable, not a regular file: a
+/// directory, a device such as /dev/urandom or /dev/zero, a FIFO; empty; larger than
+/// kMaxParticleFileBytes), or nothing. Looks only at the file's metadata: it never
+/// blocks on a FIFO or reads a device (issue 15).
+std::optional<std::string> particle_file_problem(const std::string& path);
+
 /// Reads the file; throws std::invalid_argument naming the file, line, column and
-/// value of the first problem (missing file, unknown column, wrong field count,
-/// unparsable or non-finite value, duplicated or overlapping particles).
+/// value of the first problem (missing file, not a regular file, unknown column, wrong
+/// field count, unparsable or non-finite value, duplicated or overlapping particles).
+/// The duplicate check sorts the particles by cells of dx / 2 and compares each with
+/// those of its own and the adjacent cells: O(N log N) time, O(N) memory.
 template <int Dim>
 ParticleSet<Dim> read_particle_csv(const std::string& path, double spacing, double density);
 

@@ -12,6 +12,7 @@ packages=(
   libfmt-dev                # formatted output
   libcli11-dev              # command-line parsing
   libtomlplusplus-dev       # case files (TOML) for the tsph command
+  zlib1g-dev                # crc32: the checksum that guards checkpoints against damage
   python3-numpy python3-matplotlib  # tools/plot_*.py: figures against the exact solutions
   clang-14 libclang-rt-14-dev  # sanitizer builds: ASan/UBSan, TSan, libFuzzer (presets asan, tsan, fuzz)
   libomp-14-dev             # LLVM's OpenMP runtime and its Archer tool, which TSan understands

@@ -12,9 +12,13 @@
 // whose estimated memory or output size exceeds the machine's), 3 the run diverged or
 // did not come to rest, 1 other failure: an output file that cannot be written (disk
 // full, permission; the frames and checkpoint written before are kept) or a run
-// stopped by SIGINT/SIGTERM (which still writes its last frame and summary.json).
+// stopped by SIGINT/SIGTERM/SIGHUP (which still writes its last frame and summary.json).
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
+#include "engine/case/failure_summary.hpp"  // issue 15
+#include "engine/case/restart_check.hpp"  // issue 15
+#include "engine/run_lock.hpp"            // issue 15
+#include "engine/threads.hpp"             // issue 15
 #include "engine/output_file.hpp"
 #include "engine/parallel.hpp"
 #include "tools/cli_common.hpp"
@@ -76,7 +80,7 @@ bool is_tsph_output(const fs::path& p) {
 /// then removes only tsph's own files. Returns false after printing one message.
 bool prepare_output(const Options& o) {
   std::error_code ec;
-  if (fs::exists(o.out, ec) && fs::is_directory(o.out, ec) && !fs::is_empty(o.out, ec)) {
+  if (fs::exists(o.out, ec) && fs::is_directory(o.out, ec) && !output_directory_empty(o.out)) {
     if (!o.overwrite) {
       fmt::print(stderr,
                  "tsph: error: out = '{}' is not empty: choose another directory with --out, or "
@@ -129,6 +133,10 @@ int run(const Options& o, bool check_only) {
     print_errors(e);
     return cli::kExitBadInput;
   }
+  if (const auto error = thread_count_error("--threads", o.threads); o.threads >= 0 && error) {  // issue 15
+    fmt::print(stderr, "tsph: error: {}\n", *error);
+    return cli::kExitBadInput;
+  }
   if (o.threads >= 0) c.threads = o.threads;
   set_thread_count(c.threads);
   // Resources first: a case too large for this machine is refused before anything is
@@ -169,7 +177,7 @@ int run(const Options& o, bool check_only) {
   std::string checkpoint;
   if (!o.restart.empty()) {
     try {
-      checkpoint = resolve_checkpoint(o.restart);
+      checkpoint = select_restart_checkpoint(c, o.restart, stderr);  // issue 15: intact, same physics
     } catch (const CaseError& e) {
       print_errors(e);
       return cli::kExitBadInput;
@@ -186,6 +194,11 @@ int run(const Options& o, bool check_only) {
     resolved.out = checkpoint.empty() ? (fs::path("out") / fs::path(c.path).stem()).string() : checkpoint_dir;
   const bool continuing = !checkpoint.empty() &&
                           fs::absolute(fs::path(resolved.out)).lexically_normal().string() == checkpoint_dir;
+  RunLock lock;  // issue 15: one run per output directory, taken before the emptiness check
+  if (const auto busy = lock.acquire(resolved.out)) {
+    fmt::print(stderr, "tsph: error: {}\n", *busy);
+    return cli::kExitBadInput;
+  }
   if (continuing) {
     if (!o.quiet) fmt::print("continuing the run in {} from {}\n", resolved.out, checkpoint);
   } else if (!prepare_output(resolved)) {
@@ -203,6 +216,7 @@ int run(const Options& o, bool check_only) {
   options.stop_requested = &stop_requested;
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  std::signal(SIGHUP, on_signal);  // issue 15: a closed terminal stops the run as SIGTERM does
   try {
     if (!o.quiet) {
       const CaseOverview v = inspect_case(c);
@@ -241,6 +255,9 @@ int run(const Options& o, bool check_only) {
     }
   } catch (const CaseError& e) {
     print_errors(e);
+    if (!continuing)  // issue 15: a refused run leaves no file that blocks the rerun
+      for (const auto& entry : fs::directory_iterator(resolved.out, ec))
+        if (entry.is_regular_file() && is_tsph_output(entry.path())) fs::remove(entry.path(), ec);
     return cli::kExitBadInput;
   } catch (const RunDiverged& e) {
     fmt::print(stderr, "tsph: diverged: {}\n", e.what());
@@ -253,6 +270,10 @@ int run(const Options& o, bool check_only) {
     } catch (const CaseError&) {
     }
     fmt::print(stderr, "tsph: stopped: {}; {} in {} are intact\n", e.what(), kept, resolved.out);
+    return cli::kExitFailure;
+  } catch (const std::bad_alloc& e) {  // issue 15: past the memory check (--ignore-limits, a limit it missed)
+    fmt::print(stderr, "tsph: failed: out of memory ({}); {}\n", e.what(),
+               write_out_of_memory_summary(resolved.out, c.path, TSPH_VERSION, o.overrides));
     return cli::kExitFailure;
   } catch (const std::exception& e) {
     fmt::print(stderr, "tsph: failed: {}\n", e.what());

@@ -2,14 +2,19 @@
 
 #include "engine/case/case_toml.hpp"
 #include "engine/input_error.hpp"
+#include "engine/case/case_checks.hpp"  // issue 15: checks of the whole case
+#include "engine/threads.hpp"           // issue 15: the one thread-count rule
 
 #include <toml++/toml.h>
 
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <optional>
 #include <sstream>
@@ -109,6 +114,8 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
                        (std::filesystem::exists(path, ec) ? "not a regular file" : "no such file") +
                        "): check the path"});
   }
+  if (std::ifstream readable(path); !readable)  // issue 15: not a TOML error at 0:0
+    throw CaseError({path + ": case file cannot be read (" + std::strerror(errno) + "): check its permissions"});
   try {
     return read_case(toml::parse_file(path), path, overrides);
   } catch (const toml::parse_error& e) {
@@ -146,8 +153,8 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
                   "must be 1, 2 or 3").value_or(0));
   const auto dim = static_cast<std::size_t>(c.dimension);  // 0 when invalid: sizes unchecked
   c.threads = static_cast<int>(
-      top.integer("threads", false, "2", [](std::int64_t n) { return n >= 0 && n <= 4096; },
-                  "must lie in [0, 4096] (0: the OpenMP default)").value_or(0));
+      top.integer("threads", false, "2", [](std::int64_t n) { return !thread_count_error("threads", n); },
+                  thread_count_rule()).value_or(0));
 
   {  // [geometry]
     Table g = top.table("geometry", true);
@@ -264,9 +271,9 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.force = t.boolean("force").value_or(false);
     const bool force = c.force;
     c.cfl = t.real("cfl", false, "0.9", [force](double v) { return v > 0.0 && (v <= 1.0 || (force && v <= 4.0)); },
-                   force ? "must lie in (0, 4] (time.force = true)"
-                         : "must lie in (0, 1]: the two-step scheme is unstable above CFL 1 (time.force = true runs "
-                           "it anyway, to study the instability)").value_or(0.0);
+                   force ? "must lie in (0, 4]: positive (dt = cfl dx / c_p), at most 4 with time.force = true"
+                         : "must lie in (0, 1]: positive (dt = cfl dx / c_p), and at most 1 (the two-step scheme is "
+                           "unstable above CFL 1; time.force = true runs it anyway, to study the instability)").value_or(0.0);
     c.dt = t.real("dt", false, "1e-5", positive, kPositive + " (s)").value_or(0.0);
     if (has_cfl && has_dt)
       context.errors.push_back(context.where(t.get("dt", false, "")) +
@@ -411,6 +418,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     context.errors.push_back(path + ": damping.rest_probe = '" + c.rest_probe +
                              "' is invalid: name one of the [[output.probe]] entries");
   top.finish();
+  for (auto& m : whole_case_errors(c)) context.errors.push_back(std::move(m));  // issue 15
   if (!context.errors.empty()) throw CaseError(context.errors);
   return c;
 }

@@ -1,6 +1,8 @@
 #include "engine/case/case_run.hpp"
 
 #include "engine/case/case_build.hpp"
+#include "engine/case/case_checks.hpp"   // issue 15: probe ids checked by `check` too
+#include "engine/case/restart_check.hpp"  // issue 15: physics record, checkpoint pruning
 #include "engine/memory_estimate.hpp"
 #include "engine/output_file.hpp"
 #include "engine/output/checkpoint.hpp"
@@ -33,6 +35,7 @@ namespace fs = std::filesystem;
 template <int Dim>
 CaseOverview inspect(const CaseFile& c) {
   BuiltCase<Dim> b = build_case<Dim>(c);
+  check_probe_particles(c, b.real.size());  // issue 15: as run refuses them
   CaseOverview o;
   o.real_particles = b.real.size();
   o.virtual_particles = b.virtual_particles.size();
@@ -353,8 +356,12 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     real_series = checkpoint->real_series;
     virtual_series = checkpoint->virtual_series;
     last_frame_time = real_series.empty() ? -1.0 : real_series.back().time;
+    // issue 15: --restart DIR --out OTHER lists only the frames present in OTHER
+    std::erase_if(real_series, [&](const output::PvdEntry& e) { return !fs::exists(out / e.file); });
+    std::erase_if(virtual_series, [&](const output::PvdEntry& e) { return !fs::exists(out / e.file); });
   }
   std::vector<std::string> checkpoints;  // written by this run, newest last; two are kept
+  const std::string physics = physics_record(c);  // issue 15: a restart compares it with its case
   auto write_checkpoint = [&] {
     writer.finish();  // the frames it lists are on disk first
     output::Checkpoint<Dim> k;
@@ -366,8 +373,10 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     k.real_series = real_series;
     k.virtual_series = virtual_series;
     for (const auto& e : report.errors) k.errors.push_back({e.time, e.name, e.value});
+    k.physics = physics;
     const fs::path path = out / fmt::format("checkpoint_{:010d}.bin", k.steps);
     output::write_checkpoint((path).string(), k);
+    prune_checkpoints(out.string(), path.string());  // issue 15: also those from before a restart
     flush_probes(probes, out);
     if (checkpoints.empty() || checkpoints.back() != path.string()) checkpoints.push_back(path.string());
     if (checkpoints.size() > 2) {

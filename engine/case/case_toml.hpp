@@ -171,7 +171,8 @@ class Table {
   std::optional<std::vector<double>> numbers(const std::string& key, bool required,
                                              std::size_t size, const std::string& what) {
     std::string example = "[";
-    for (std::size_t k = 0; k < std::max<std::size_t>(size, 1); ++k) example += k ? ", 0.0" : "0.0";
+    const bool unit = key == "normal" || key == "direction";  // issue 15: a valid example (non-zero)
+    for (std::size_t k = 0; k < std::max<std::size_t>(size, 1); ++k) example += k ? ", 0.0" : unit ? "1.0" : "0.0";
     example += "]";
     const toml::node* node = get(key, required, example);
     if (!node) return std::nullopt;
@@ -238,7 +239,7 @@ class Table {
     std::vector<Table> out;
     if (!node) return out;
     const toml::array* array = node->as_array();
-    if (!array || !array->is_array_of_tables()) {
+    if (!array || (!array->empty() && !array->is_array_of_tables())) {  // issue 15: [] is reported by the caller
       context_.invalid(node, path(key), "must be an array of tables: write each as [[" + path(key) + "]]");
       return out;
     }

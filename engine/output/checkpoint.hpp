@@ -4,20 +4,41 @@
 // (temporary file, fsync, rename). The stepper keeps no other state from one step to
 // the next in small-strain runs: its neighbour lists, normals and boundary slots are
 // rebuilt from the particles when it is constructed.
+//
+// Format 2 (issue 15, docs/reliability.md): the magic "TSPHCKP2", the byte count of the
+// body (uint64) and zlib's crc32 of the body (uint32), then the body: the record of the
+// case's resolved physics (engine/case/physics_record.hpp: one "key = value" line per
+// key, and its crc32) followed by the state. A damaged file (a flipped bit, overwritten
+// or missing bytes) fails the size or the checksum and is refused with a
+// CheckpointError naming the file and the check; nothing of it is parsed before. Format
+// 1 (magic "TSPHCKP1", no checksum, no physics record) is refused with a message that
+// says so: its state cannot be verified.
 #pragma once
 
 #include "engine/output/vtu_writer.hpp"
 #include "engine/particle_set.hpp"
 
 #include <cstdint>
+#include <algorithm>
+#include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <vector>
 
+#include <zlib.h>
+
 namespace tsph::output {
+
+/// A checkpoint that cannot be used: missing, not a checkpoint, of an old format, or
+/// damaged. what() names the file and the check that failed.
+class CheckpointError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct ErrorEntry {
   double time = 0.0;
@@ -33,11 +54,40 @@ struct Checkpoint {
   std::uint64_t frames = 0;
   std::vector<PvdEntry> real_series, virtual_series;
   std::vector<ErrorEntry> errors;
+  /// The resolved physics of the case that wrote it (physics_record.hpp).
+  std::string physics;
+};
+
+/// What can be checked of a checkpoint without knowing its dimension: written whole
+/// (size and checksum) and by which case.
+struct CheckpointHeader {
+  std::string path;
+  std::uint32_t checksum = 0;  ///< crc32 of the body
+  std::string physics;         ///< "key = value" lines
+  std::uint32_t physics_checksum = 0;
+  std::int32_t dimension = 0;
+  double time = 0.0;
+  std::int64_t steps = 0;
 };
 
 namespace detail {
 
-constexpr char kCheckpointMagic[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '1'};
+constexpr char kCheckpointMagic[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '2'};
+constexpr char kCheckpointMagicFormat1[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '1'};
+/// Magic, body size, body checksum.
+constexpr std::size_t kCheckpointPrefixBytes = 8 + 8 + 4;
+
+/// zlib's crc32 of `bytes` (in pieces: zlib takes at most UINT_MAX bytes at a time).
+inline std::uint32_t crc32_of(const char* bytes, std::size_t size) {
+  uLong crc = ::crc32(0L, Z_NULL, 0);
+  while (size > 0) {
+    const auto piece = static_cast<uInt>(std::min<std::size_t>(size, 1u << 30));
+    crc = ::crc32(crc, reinterpret_cast<const Bytef*>(bytes), piece);
+    bytes += piece;
+    size -= piece;
+  }
+  return static_cast<std::uint32_t>(crc);
+}
 
 class Bytes {
  public:
@@ -58,6 +108,7 @@ class Bytes {
     data_.insert(data_.end(), s.begin(), s.end());
   }
   const std::vector<char>& data() const { return data_; }
+  std::vector<char>& data() { return data_; }
 
  private:
   std::vector<char> data_;
@@ -76,6 +127,9 @@ class Reader {
   /// `expected` values, or none (a released optional field of a ParticleSet).
   void get_vector(std::vector<T>& v, std::uint64_t expected) {
     const auto n = get<std::uint64_t>();
+    if (n > (data_.size() - position_) / sizeof(T))
+      throw std::runtime_error("checkpoint '" + path_ + "' is damaged: a field holds " + std::to_string(n) +
+                               " values, more than the file");
     if (n != expected && n != 0)
       throw std::runtime_error("checkpoint '" + path_ + "' is damaged: a field holds " + std::to_string(n) +
                                " values, expected " + std::to_string(expected));
@@ -84,12 +138,15 @@ class Reader {
   }
   std::string get_string() {
     const auto n = get<std::uint64_t>();
-    if (n > data_.size()) throw std::runtime_error("checkpoint '" + path_ + "' is damaged (string length)");
+    if (n > data_.size() - position_)
+      throw std::runtime_error("checkpoint '" + path_ + "' is damaged (string length)");
     std::string s(n, '\0');
     take(s.data(), n);
     return s;
   }
   bool at_end() const { return position_ == data_.size(); }
+  std::size_t position() const { return position_; }
+  const std::vector<char>& bytes() const { return data_; }
 
  private:
   void take(void* out, std::size_t bytes) {
@@ -112,7 +169,9 @@ inline void put_series(Bytes& b, const std::vector<PvdEntry>& series) {
   }
 }
 inline std::vector<PvdEntry> get_series(Reader& r) {
-  std::vector<PvdEntry> series(r.get<std::uint64_t>());
+  const auto n = r.get<std::uint64_t>();
+  if (n > r.bytes().size() / 16) throw std::runtime_error("checkpoint is damaged (series length)");
+  std::vector<PvdEntry> series(n);
   for (auto& e : series) {
     e.time = r.get<double>();
     e.file = r.get_string();
@@ -127,6 +186,10 @@ template <int Dim>
 void write_checkpoint(const std::string& path, const Checkpoint<Dim>& c) {
   detail::Bytes b;
   for (char ch : detail::kCheckpointMagic) b.put(ch);
+  b.put<std::uint64_t>(0);  // the body's size and checksum, filled in below
+  b.put<std::uint32_t>(0);
+  b.put<std::uint32_t>(detail::crc32_of(c.physics.data(), c.physics.size()));
+  b.put_string(c.physics);
   b.put<std::int32_t>(Dim);
   b.put(c.time);
   b.put(c.steps);
@@ -144,46 +207,130 @@ void write_checkpoint(const std::string& path, const Checkpoint<Dim>& c) {
     b.put_string(e.name);
     b.put(e.value);
   }
-  write_text_file(path, std::string(b.data().begin(), b.data().end()), /*durable=*/true);
+  std::vector<char>& bytes = b.data();
+  const std::uint64_t body = bytes.size() - detail::kCheckpointPrefixBytes;
+  const std::uint32_t crc = detail::crc32_of(bytes.data() + detail::kCheckpointPrefixBytes, body);
+  std::memcpy(bytes.data() + 8, &body, sizeof body);
+  std::memcpy(bytes.data() + 16, &crc, sizeof crc);
+  write_text_file(path, std::string(bytes.begin(), bytes.end()), /*durable=*/true);
 }
 
-/// Reads a checkpoint; throws std::runtime_error naming the file if it is not one,
-/// is of another dimension, or is damaged.
+namespace detail {
+
+/// Checks the magic, the size and the checksum of the bytes of a checkpoint, then reads
+/// the header; leaves `r` at the state. Throws CheckpointError naming the failed check.
+inline CheckpointHeader verify_checkpoint(Reader& r, std::size_t file_bytes, const std::string& path) {
+  const std::string where = "checkpoint '" + path + "'";
+  if (file_bytes < 8) throw CheckpointError(where + " is not a tsph checkpoint (" + std::to_string(file_bytes) + " bytes)");
+  char magic[8];
+  for (char& ch : magic) ch = r.get<char>();
+  if (std::memcmp(magic, kCheckpointMagicFormat1, 8) == 0)
+    throw CheckpointError(where + " is of format 1 (tsph before issue 15), which has no checksum and no record of "
+                          "the case's physics, so it cannot be verified: start the run again (or continue it "
+                          "with the tsph that wrote it)");
+  if (std::memcmp(magic, kCheckpointMagic, 8) != 0) throw CheckpointError("'" + path + "' is not a tsph checkpoint");
+  if (file_bytes < kCheckpointPrefixBytes)
+    throw CheckpointError(where + " is damaged: size check failed (truncated to " + std::to_string(file_bytes) +
+                          " bytes, in its header)");
+  const auto body = r.get<std::uint64_t>();
+  const auto crc = r.get<std::uint32_t>();
+  if (body != file_bytes - kCheckpointPrefixBytes)
+    throw CheckpointError(where + " is damaged: size check failed (the header gives a body of " + std::to_string(body) +
+                          " bytes, the file holds " + std::to_string(file_bytes - kCheckpointPrefixBytes) +
+                          (body > file_bytes - kCheckpointPrefixBytes ? ": truncated)" : ")"));
+  const std::vector<char>& data = r.bytes();
+  const std::uint32_t actual = crc32_of(data.data() + kCheckpointPrefixBytes, data.size() - kCheckpointPrefixBytes);
+  if (actual != crc)
+    throw CheckpointError(where + " is damaged: checksum check failed (crc32 of the body " + std::to_string(actual) +
+                          ", recorded " + std::to_string(crc) + ")");
+  CheckpointHeader h;
+  h.path = path;
+  h.checksum = crc;
+  try {
+    h.physics_checksum = r.get<std::uint32_t>();
+    h.physics = r.get_string();
+    h.dimension = r.get<std::int32_t>();
+    h.time = r.get<double>();
+    h.steps = r.get<std::int64_t>();
+  } catch (const std::runtime_error& e) {
+    throw CheckpointError(e.what());
+  }
+  if (crc32_of(h.physics.data(), h.physics.size()) != h.physics_checksum)
+    throw CheckpointError(where + " is damaged: physics record check failed");
+  return h;
+}
+
+inline std::vector<char> read_bytes(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw CheckpointError("checkpoint '" + path + "' cannot be opened (" +
+                          (std::filesystem::exists(path, ec) ? "not a regular file" : "no such file") + ")");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw CheckpointError("checkpoint '" + path + "' cannot be opened (" + std::strerror(errno) + ")");
+  return std::vector<char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+}  // namespace detail
+
+/// The header of an intact checkpoint (size and checksum verified, state not parsed);
+/// throws CheckpointError naming the file and the failed check.
+inline CheckpointHeader read_checkpoint_header(const std::string& path) {
+  std::vector<char> data = detail::read_bytes(path);
+  const std::size_t size = data.size();
+  detail::Reader r(std::move(data), path);
+  CheckpointHeader h = detail::verify_checkpoint(r, size, path);
+  return h;
+}
+
+/// Reads a checkpoint from its bytes; `path` names it in the messages. Throws
+/// CheckpointError if it is not one, is of another dimension or format, or is damaged.
+template <int Dim>
+Checkpoint<Dim> parse_checkpoint(std::vector<char> data, const std::string& path) {
+  const std::size_t size = data.size();
+  detail::Reader r(std::move(data), path);
+  const CheckpointHeader h = detail::verify_checkpoint(r, size, path);
+  try {
+    if (h.dimension != Dim)
+      throw CheckpointError("checkpoint '" + path + "' is of a " + std::to_string(h.dimension) + "D run, the case is " +
+                            std::to_string(Dim) + "D");
+    Checkpoint<Dim> c;
+    c.physics = h.physics;
+    c.time = h.time;
+    c.steps = h.steps;
+    c.frames = r.get<std::uint64_t>();
+    for (ParticleSet<Dim>* set : {&c.real, &c.virtual_particles}) {
+      const auto n = r.get<std::uint64_t>();
+      set->for_each_field([&r, n](auto& field) { r.get_vector(field, n); });
+      try {  // released optional fields (the solver's virtual set) come back released
+        set->check_field_sizes("checkpoint '" + path + "'");
+      } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(std::string(e.what()) + " (damaged)");
+      }
+    }
+    c.real_series = detail::get_series(r);
+    c.virtual_series = detail::get_series(r);
+    const auto errors = r.get<std::uint64_t>();
+    if (errors > size) throw std::runtime_error("checkpoint '" + path + "' is damaged (error record count)");
+    c.errors.resize(errors);
+    for (auto& e : c.errors) {
+      e.time = r.get<double>();
+      e.name = r.get_string();
+      e.value = r.get<double>();
+    }
+    if (!r.at_end()) throw std::runtime_error("checkpoint '" + path + "' is damaged (trailing bytes)");
+    return c;
+  } catch (const CheckpointError&) {
+    throw;
+  } catch (const std::runtime_error& e) {
+    throw CheckpointError(e.what());
+  }
+}
+
+/// Reads a checkpoint; throws CheckpointError (a std::runtime_error) naming the file if
+/// it is not one, is of another dimension or format, or is damaged.
 template <int Dim>
 Checkpoint<Dim> read_checkpoint(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("checkpoint '" + path + "' cannot be opened");
-  std::vector<char> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  detail::Reader r(std::move(data), path);
-  for (char ch : detail::kCheckpointMagic)
-    if (r.get<char>() != ch) throw std::runtime_error("'" + path + "' is not a tsph checkpoint");
-  const auto dim = r.get<std::int32_t>();
-  if (dim != Dim)
-    throw std::runtime_error("checkpoint '" + path + "' is of a " + std::to_string(dim) + "D run, the case is " +
-                             std::to_string(Dim) + "D");
-  Checkpoint<Dim> c;
-  c.time = r.get<double>();
-  c.steps = r.get<std::int64_t>();
-  c.frames = r.get<std::uint64_t>();
-  for (ParticleSet<Dim>* set : {&c.real, &c.virtual_particles}) {
-    const auto n = r.get<std::uint64_t>();
-    set->for_each_field([&r, n](auto& field) { r.get_vector(field, n); });
-    try {  // released optional fields (the solver's virtual set) come back released
-      set->check_field_sizes("checkpoint '" + path + "'");
-    } catch (const std::invalid_argument& e) {
-      throw std::runtime_error(std::string(e.what()) + " (damaged)");
-    }
-  }
-  c.real_series = detail::get_series(r);
-  c.virtual_series = detail::get_series(r);
-  c.errors.resize(r.get<std::uint64_t>());
-  for (auto& e : c.errors) {
-    e.time = r.get<double>();
-    e.name = r.get_string();
-    e.value = r.get<double>();
-  }
-  if (!r.at_end()) throw std::runtime_error("checkpoint '" + path + "' is damaged (trailing bytes)");
-  return c;
+  return parse_checkpoint<Dim>(detail::read_bytes(path), path);
 }
 
 }  // namespace tsph::output

@@ -10,7 +10,7 @@ cd "$root"
 seconds="${1:-30}"
 shift || true
 targets=("$@")
-[ "${#targets[@]}" -gt 0 ] || targets=(fuzz_particle_file fuzz_case_file)
+[ "${#targets[@]}" -gt 0 ] || targets=(fuzz_particle_file fuzz_case_file fuzz_checkpoint)
 cmake --preset fuzz >/dev/null
 cmake --build --preset fuzz -j "$(nproc)" --target "${targets[@]}" >/dev/null
 scratch="$(mktemp -d /tmp/tsph-fuzz.XXXXXX)"
