@@ -1,4 +1,4 @@
-// Boundary conditions on real particles (seed eqs. 1c-1d; DESIGN.md section 4).
+// Boundary conditions on real particles (seed eqs. 1c-1d; docs/method.md section 4).
 // A condition prescribes either the velocity vector or the traction vector
 // t = sigma . n. Component k of the prescribed vector at particle I and time t is
 //   time[k](t) * profile(x_I^0)[k],

@@ -1,5 +1,5 @@
 // Validation results shared by every case: a failure names the parameter, its value
-// and what is allowed (STYLE.md: "Errors are values at the edges").
+// and what is allowed (docs/conventions.md: "Errors are values at the edges").
 #pragma once
 
 #include <cmath>

@@ -1,6 +1,6 @@
 // Regular particle lattices for boxes: real particles on the nodes of a lattice of
 // spacing dx (the boundary nodes included), virtual particles at the cell centres
-// (midpoints in 1D) of the same lattice (DESIGN.md section 3).
+// (midpoints in 1D) of the same lattice (docs/method.md section 3).
 //
 // A real particle's volume is its share of the box (trapezoidal rule): dx^Dim in the
 // interior, halved once per axis on which it sits on a face. So the masses add up to

@@ -1,4 +1,4 @@
-// The one place where OpenMP pragmas live (STYLE.md: "OpenMP pragmas live in one
+// The one place where OpenMP pragmas live (docs/conventions.md: "OpenMP pragmas live in one
 // header"). Loops elsewhere call these helpers with a lambda for the body.
 //
 // Determinism: every helper gives each index to exactly one thread and every

@@ -1,4 +1,4 @@
-// Structure-of-arrays particle storage (DESIGN.md section 6, STYLE.md "Structure of
+// Structure-of-arrays particle storage (docs/architecture.md, docs/conventions.md "Structure of
 // arrays"). One contiguous array per scalar component; loops receive a
 // `ParticleView` of raw pointers, never the container. Every field is reached through
 // `for_each_field`, so `resize` and `permute` cannot forget one.

@@ -1,4 +1,4 @@
-// The Taylor-SPH stepper (seed eqs. 3-4; DESIGN.md section 3), Dim = 1, 2, 3: the
+// The Taylor-SPH stepper (seed eqs. 3-4; docs/method.md section 3), Dim = 1, 2, 3: the
 // solver's state (solver/state.hpp) and the stages of one step n -> n+1, each in its own
 // file under engine/solver/ (docs/architecture.md has the map and the data flow).
 //

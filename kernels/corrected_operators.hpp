@@ -1,5 +1,5 @@
 // Corrected SPH operators between a query point and a set of source particles
-// (DESIGN.md section 2): the normalised kernel for interpolation and the corrected
+// (docs/method.md section 2): the normalised kernel for interpolation and the corrected
 // gradient. Both are computed per query point from its CSR neighbour row, for any
 // pair of sets (real -> virtual, virtual -> real) or within one set.
 //

@@ -1,7 +1,7 @@
 // Smoothing kernels W(r, h) with compact support 2h, for Dim = 1, 2, 3.
 //
 // Every kernel is a small value type with `value(r, h)` and `derivative(r, h)` (dW/dr),
-// and the support radius `support_radius(h) = 2h` (DESIGN.md section 2). The gradient
+// and the support radius `support_radius(h) = 2h` (docs/method.md section 2). The gradient
 // with respect to the first point, grad_I W(x_I - x_J), is `kernel_gradient` below.
 // Normalisation constants are constexpr per dimension; tests/test_kernels.cpp checks
 // that each integrates to one.
@@ -181,7 +181,7 @@ struct QuinticSpline : KernelFactors<Dim, QuinticSpline<Dim>> {
   static T pow5(T x) { return pow4(x) * x; }
 };
 
-/// grad_I W(x_I - x_J) for the separation `x_ij = x_I - x_J` (DESIGN.md section 2).
+/// grad_I W(x_I - x_J) for the separation `x_ij = x_I - x_J` (docs/method.md section 2).
 template <int Dim, class Kernel>
 Eigen::Matrix<double, Dim, 1> kernel_gradient(const Kernel& kernel,
                                               const Eigen::Matrix<double, Dim, 1>& x_ij,

@@ -1,4 +1,4 @@
-// The one neighbour-list format (DESIGN.md section 6, STYLE.md "One neighbour-list
+// The one neighbour-list format (docs/architecture.md, docs/conventions.md "One neighbour-list
 // format"): compressed sparse rows. Row i lists, in increasing order, the indices of
 // the source points within the search radius of query point i (distance <= radius,
 // the points exactly on the radius included). Every search (cell list, brute force,

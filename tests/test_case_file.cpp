@@ -319,7 +319,7 @@ TEST(EditDistance, CountsInsertionsDeletionsSubstitutions) {
 
 // The bar case file runs the same physics as the bar built by hand (101 lattice
 // particles, the left end fixed, the velocity pulse at the right end, CFL 1 on the
-// output times): the same profiles bitwise, and errors at round-off (README, Table 1).
+// output times): the same profiles bitwise, and errors at round-off (docs/validation.md, Table 1).
 TEST_F(CaseFileTest, BarCaseFileEqualsTheBarBuiltByHand) {
   const CaseFile c = load_case((kCases / "bar.toml").string());
   RunOptions options;
@@ -368,7 +368,7 @@ TEST_F(CaseFileTest, BarCaseFileEqualsTheBarBuiltByHand) {
     for (const auto& e : r.errors)
       if (e.name == "velocity_x_l2_percent" && e.time == target) error = e.value;
     EXPECT_EQ(error, relative_l2_percent(solver.real().velocity[0], v_exact));
-    EXPECT_LT(error, 1e-9);  // alpha 0.6, CFL 1: exact (README, Table 1)
+    EXPECT_LT(error, 1e-9);  // alpha 0.6, CFL 1: exact (docs/validation.md, Table 1)
     ++frame;
   }
   EXPECT_EQ(r.steps, steps);

@@ -49,7 +49,7 @@ double momentum_scale(const ParticleSet<2>& r) {
 // started in the shape of its first longitudinal mode, v_x = V cos(pi x / L), zero
 // stress. Over 440 steps (10 periods of that mode) the total energy never rises and
 // keeps more than 65 % of its initial value (measured 70.8 %: the scheme's numerical
-// dissipation; README, "Known problems").
+// dissipation; docs/known-problems.md).
 TEST(Conservation, FreeBlockKeepsItsEnergy) {
   const auto box = square(21);
   ParticleSet<2> real = make_real_lattice(box, kDensity);
@@ -81,7 +81,7 @@ TEST(Conservation, FreeBlockKeepsItsEnergy) {
 // Linear momentum of a free block without external loads, with a smooth velocity field
 // of zero total momentum: the corrected gradient is not pairwise antisymmetric, so the
 // momentum is not conserved to round-off. We test the measured bound: over 1000 steps
-// |P(t)| stays below 1e-2 of sum m |v| at t = 0 (measured 5.6e-3; README, "Known problems").
+// |P(t)| stays below 1e-2 of sum m |v| at t = 0 (measured 5.6e-3; docs/known-problems.md).
 TEST(Conservation, FreeBlockMomentumDriftIsBounded) {
   const auto box = square(21);
   ParticleSet<2> real = make_real_lattice(box, kDensity);
@@ -151,7 +151,7 @@ TEST(Conservation, ConservativeMomentumOptionConservesMomentumExactly) {
 // from the free faces (alpha 0.6): one tiny step from rest gives rho dv/dt = div sigma
 // there to round-off. Next to the faces it is not (measured 8-17 % in the first
 // interior row at alpha 0.6, several hundred percent three rows deep at alpha 1.2: the
-// weak form's integration constraint fails at the surface; README, Known problems).
+// weak form's integration constraint fails at the surface; docs/known-problems.md).
 TEST(Conservation, ConservativeMomentumIsConsistentInTheBulk) {
   const auto box = square(15);
   ParticleSet<2> real = make_real_lattice(box, kDensity);
@@ -223,7 +223,7 @@ TEST(VelocityField, IsImposedAtEveryParticle) {
 // (sigma_yy is now 3e7) and every real particle keeps its stress within 1e-3 of the
 // pre-stress (the bound): measured 2.7e-4 (2.1e-4 away from the faces), of the
 // order of the centripetal stress rho omega^2 r^2 ~ 1.3e4 Pa = 4e-4 of it. Two things
-// make it so (README, Known problems): the full step takes the velocity gradient in the
+// make it so (docs/known-problems.md): the full step takes the velocity gradient in the
 // midpoint configuration (move_to_midpoint; without it 3.3e-3, a spurious compression
 // growing linearly in time), and the face particles rotate their stress by the
 // Hughes-Winget rotation (objective_rotation_rate; with forward Euler on

@@ -81,7 +81,7 @@ void run_patch_test(PlaneMode mode, double alpha) {
   const auto& r = solver.real();
   for (std::size_t i = 0; i < r.size(); ++i) {
     // At alpha 0.6 a box corner has a single virtual neighbour: its tangential
-    // derivatives lack a direction, and the corner is not exact (README).
+    // derivatives lack a direction, and the corner is not exact (docs/method.md section 4).
     int on_faces = 0;
     for (int d = 0; d < Dim; ++d) {
       const double x0 = r.initial_position[d][i] / dx;
@@ -153,7 +153,7 @@ TEST(Strip2D, ReproducesThe1DBarExactly) {
 }
 
 // The real-particle checkerboard (-1)^(i+j) is invisible to the virtual particles
-// (DESIGN.md section 5). Seeded in the velocity of a box held on its faces, it must
+// (docs/method.md section 5). Seeded in the velocity of a box held on its faces, it must
 // not grow: its amplitude after 2000 steps is at most its initial one, and the total
 // energy does not increase.
 TEST(Hourglass, SeededCheckerboardDoesNotGrow) {

@@ -118,6 +118,10 @@ expect 0 "" "$tsph" check "$bar" --threads 2
 expect 2 "time\.cfl = 1\.05 is invalid" "$tsph" run "$bar" --quiet --out blowup --set time.cfl=1.05
 sed 's/^cfl = 1.0 .*/dt = 5.25e-5/' "$bar" >dt_above.toml
 expect 2 "exceeds the stability limit" "$tsph" run dt_above.toml --quiet --out blowup3
+# Forced above the limit (time.force, the studies' switch): the blow-up ends with exit 3
+# and a diagnosis naming the CFL, never exit 0 (tsph-bar --cfl 1.05 --force exited 0).
+expect 3 "CFL = dt c_p / dx = 1.05 is above the scheme's stability limit" "$tsph" run "$bar" --quiet --out blowup4 \
+  --set time.cfl=1.05 --set time.force=true --set time.end=0.003
 
 # --- 6. Probes -------------------------------------------------------------------
 cat "$bar" >probes.toml

@@ -1,4 +1,4 @@
-// The one list of dimensions that typed tests run over (STYLE.md: "one test body runs
+// The one list of dimensions that typed tests run over (docs/conventions.md: "one test body runs
 // over every kernel, every search and every dimension"), with readable names (1d, 2d, 3d).
 #pragma once
 

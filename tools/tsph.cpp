@@ -1,4 +1,4 @@
-// tsph: runs a case file (TOML; key reference in tools/CASES.md).
+// tsph: runs a case file (TOML; key reference in docs/cases.md).
 //
 //   tsph run CASE [--set key=value]... [--out DIR] [--overwrite] [--threads N] [--quiet]
 //            [--restart CHECKPOINT|DIR] [--ignore-limits]
@@ -285,7 +285,7 @@ int run(const Options& o, bool check_only) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"tsph: Taylor-SPH solid dynamics from a case file (keys: tools/CASES.md)"};
+  CLI::App app{"tsph: Taylor-SPH solid dynamics from a case file (keys: docs/cases.md)"};
   app.set_version_flag("--version", std::string("tsph ") + TSPH_VERSION);
   app.require_subcommand(1);
   Options o;

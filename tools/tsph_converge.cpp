@@ -9,7 +9,7 @@
 //
 // Writes into --out (default out/<case name>-converge): one `tsph run` output directory
 // per value (<KEY's last part>_<value>/), converge.csv and summary.json
-// ("schema": "tsph.summary/1", "command": "converge"; tools/CASES.md). A run that does
+// ("schema": "tsph.summary/1", "command": "converge"; docs/cases.md). A run that does
 // not come to rest is reported as such, its rate as '-'. Exit status: 0, 2 bad input,
 // 3 a run diverged or did not come to rest, 1 other failure.
 #include "engine/case/case_file.hpp"

@@ -6,7 +6,7 @@
 // directory: frames, probes, summary.json; tools/plot_table1.py reads them),
 // profile_alpha<A>_t<T>ms.csv (x, velocity, exact velocity, stress, exact stress at
 // each output time; tools/plot_bar.py), table1.csv and summary.json
-// ("schema": "tsph.summary/1", "command": "table1"; tools/CASES.md).
+// ("schema": "tsph.summary/1", "command": "table1"; docs/cases.md).
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/output_file.hpp"

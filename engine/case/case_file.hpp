@@ -1,6 +1,6 @@
 // Case files: a TOML description of a run (geometry, material, method, time, boundary
 // conditions, initial conditions, damping, output, exact solution), read with toml++
-// and validated key by key. The key reference is tools/CASES.md.
+// and validated key by key. The key reference is docs/cases.md.
 //
 // Every problem is reported as "FILE:LINE:COLUMN: key = value is invalid: what is
 // allowed" (or "FILE: --set key: ..." for command-line overrides); an unknown key names

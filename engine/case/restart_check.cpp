@@ -96,7 +96,7 @@ std::string physics_record(const CaseFile& c) {
   r.add_text("method.kinematics", std::string(to_string(c.kinematics)));
   r.add("method.hourglass", c.hourglass);
   r.add("method.hourglass_stiffness", c.hourglass_stiffness);
-  r.add_text("method.velocity_wall", c.wall_gradient ? "wall_gradient" : "characteristics");
+  r.add_text("method.velocity_wall", c.velocity_wall == CaseFile::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics");
   r.add("method.surface_extrapolation", c.surface_extrapolation);
   r.add("method.free_edge_uniaxial", c.free_edge_uniaxial);
   r.add("method.body_force", c.body_force);
@@ -138,12 +138,13 @@ std::string physics_record(const CaseFile& c) {
   r.add("initial.velocity", c.initial_velocity);
   r.add("initial.velocity_gradient", c.velocity_gradient);
   r.add("initial.stress", c.initial_stress);
-  if (!c.initial_profile.empty()) {
-    r.add_text("initial.profile.type", c.initial_profile);
-    r.add("initial.profile.amplitude", c.wave_amplitude);
-    r.add("initial.profile.direction", c.wave_direction);
-    r.add("initial.profile.wavelength", c.wavelength);
-    r.add("initial.profile.phase", c.wave_phase);
+  for (std::size_t k = 0; k < c.velocity_waves.size(); ++k) {
+    const VelocityWave& w = c.velocity_waves[k];
+    const std::string p = fmt::format("initial.profile[{}].", k);
+    r.add(p + "amplitude", w.amplitude);
+    r.add(p + "direction", w.direction);
+    r.add(p + "wavelength", w.wavelength);
+    r.add(p + "phase", w.phase);
   }
   r.add("damping.coefficient", c.damping);
   return r.text();

@@ -1,6 +1,6 @@
 // Seed eq. (4), the full step virtual -> real:
 //   U_r^{n+1} = U_r^n + dt (S_r^{n+1/2} - div F^{n+1/2}),
-// with F_r^{n+1/2} interpolated from the virtual neighbours (DESIGN.md section 3.2). At
+// with F_r^{n+1/2} interpolated from the virtual neighbours (docs/method.md section 3). At
 // the boundary particles it also keeps the virtual set's derivatives at n+1/2 that the
 // boundary treatments read (BoundaryParticles::half_*).
 #pragma once

@@ -1,6 +1,6 @@
 // Seed eq. (3), the half step real -> virtual: U^n interpolated to every virtual
 // particle with the normalised kernel, then U_v^{n+1/2} = U_v^n + dt/2 (S_v^n - div F),
-// the divergence from sum_r V_r (F_r^n - F_v^n) . Gn_vr (DESIGN.md section 3.1). In
+// the divergence from sum_r V_r (F_r^n - F_v^n) . Gn_vr (docs/method.md section 3). In
 // updated Lagrangian the virtual particles are put back at their material points here.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Kinematics and virtual motion (DESIGN.md section 3.3): the displacements, and in
+// Kinematics and virtual motion (docs/method.md section 3): the displacements, and in
 // updated Lagrangian the motion of both sets, in two halves around the full step (the
 // midpoint configuration x^{n+1/2}, then x^{n+1}). The virtual particles move with
 // their half-step velocity and are put back at their material points by the half step
@@ -43,7 +43,7 @@ struct Motion {
   /// x^n instead, the gradient of v^{n+1/2} misses the half step's own motion: in a
   /// rigid rotation whose stress carries the centripetal acceleration, v^{n+1/2} =
   /// (omega J - dt/2 omega^2) (x^n - c) has divergence -omega^2 dt, a spurious
-  /// compression that grew the pressure linearly in time (README, objectivity). In the
+  /// compression that grew the pressure linearly in time (docs/notes/2026-11-23-objectivity-and-momentum.md). In the
   /// midpoint configuration its gradient is skew to O(dt^2). A non-finite velocity
   /// leaves its particle where it is (the stability monitor reports it). The real set's pass
   /// also makes begin_displacement's update (the same increment dt/2 v^n).

@@ -186,7 +186,7 @@ class StabilityMonitor {
       else
         cause = "alpha = h / dx = " + format_number(state.settings.smoothing_length / dx) + " or the " +
                 std::string(to_string(state.settings.kinematics)) +
-                " kinematics (stable: alpha 0.6 to 1.2, small_strain; README, Known problems)";
+                " kinematics (stable: alpha 0.6 to 1.2, small_strain; docs/known-problems.md)";
     }
     return "solver: the solution diverged at step " + std::to_string(step) + " (t = " +
            format_number(state.time + dt) + " s): " + (is_real ? "real" : "virtual") + " particle " +

@@ -1,4 +1,4 @@
-// Evaluation of one stencil row (DESIGN.md section 2): the interpolated state of a
+// Evaluation of one stencil row (docs/method.md section 2): the interpolated state of a
 // query point and the corrected gradients of the flux, shared by the half step (seed
 // eq. 3) and the full step (seed eq. 4), and the tally of stencil fallbacks.
 #pragma once
@@ -141,7 +141,7 @@ struct StencilEvaluation {
 
   /// Interpolates U at the query point and takes the corrected gradients of the
   /// velocity and the divergence of the stress, both relative to the interpolated
-  /// value at the query point (DESIGN.md section 2). Same instruction set as
+  /// value at the query point (docs/method.md section 2). Same instruction set as
   /// compute_stencil (simd_path()).
   static LocalState evaluate(const ParticleView<Dim>& source, std::span<const std::uint32_t> nb,
                              const StencilWeights<Dim>& w, GatheredSource& gathered) {

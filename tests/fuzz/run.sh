@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A short libFuzzer run of every target (README, Fuzzing): builds the preset `fuzz`
+# A short libFuzzer run of every target (docs/reliability.md, Fuzzing): builds the preset `fuzz`
 # (clang-14, ASan + UBSan), copies each seed corpus to a scratch folder and fuzzes it.
 #   tests/fuzz/run.sh [SECONDS_PER_TARGET (default 30)] [TARGET...]
 # Exit status 0 if no target found anything; a finding leaves its input in the scratch

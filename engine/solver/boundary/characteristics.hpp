@@ -1,10 +1,10 @@
-// The characteristic boundary treatment (DESIGN.md section 4), Dim = 1, 2, 3: the
+// The characteristic boundary treatment (docs/method.md section 4), Dim = 1, 2, 3: the
 // boundary pre-pass (U^n and its gradients at the boundary particles, from the real set)
 // and the boundary state at n+1.
 //
 // (seed eq. 1b, divided by the density at the particle).
 //
-// Our choices, beyond the seed (documented in README.md):
+// Our choices, beyond the seed (documented in docs/method.md):
 //  * The source S (Jaumann terms, body force, damping -c v) is evaluated at the
 //    particle being updated from its own interpolated state and corrected velocity
 //    gradient, rather than at the neighbours and interpolated: the same order of

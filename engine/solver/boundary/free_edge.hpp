@@ -87,7 +87,7 @@ struct FreeEdge {
   /// edge direction e, sigma = s e (x) e, with ds/dt = E e . grad v . e (the derivative
   /// along the edge, which the virtual stencil along the edge has). Without it only the
   /// traction on the kernel's diagonal normal vanishes and the edge keeps
-  /// sigma_xy = -sigma_xz growing with mu d_x v_t (README, The cantilever). e is the
+  /// sigma_xy = -sigma_xz growing with mu d_x v_t (docs/method.md section 4). e is the
   /// current direction of the edge (the neighbours initially on the edge line; the
   /// coordinate axis itself in small strain), so that it turns with the body.
   static void make_uniaxial(const SolverState<Dim>& state, std::size_t b, std::uint32_t i, const Vec& n, const Mat& frame,

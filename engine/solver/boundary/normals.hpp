@@ -1,5 +1,5 @@
 // The outward normals of the boundary particles and the surface/interior decision
-// (DESIGN.md section 4): kernel normals -sum_J V_J grad W_IJ, replaced by the face
+// (docs/method.md section 4): kernel normals -sum_J V_J grad W_IJ, replaced by the face
 // normal where the particle's neighbours under its condition lie on a plane.
 #pragma once
 

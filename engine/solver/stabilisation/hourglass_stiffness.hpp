@@ -1,5 +1,5 @@
 // SolverSettings::hourglass_stiffness: a restoring force on the part of the real
-// displacement field that the virtual particles cannot see (DESIGN.md section 5: the
+// displacement field that the virtual particles cannot see (docs/method.md section 5: the
 // checkerboard and the odd-even columns), zero for every linear displacement field.
 #pragma once
 

@@ -3,7 +3,7 @@
 // towards the linear-corrected average of its real neighbours,
 // v <- (1 - eps) v + eps vbar, exact for linear fields. Without it a surface particle
 // can hold a steady velocity pattern that the virtual set cannot see (the real-particle
-// checkerboard of DESIGN.md section 5, fed by the characteristic relations).
+// checkerboard of docs/method.md section 5, fed by the characteristic relations).
 #pragma once
 
 #include "engine/parallel.hpp"
