@@ -16,6 +16,7 @@ constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
 constexpr int kExitNotConverged = 3;
 constexpr int kExitDiverged = 3;  ///< NaN/Inf or runaway energy (SolutionDiverged)
+constexpr int kExitValidationFailed = 4;  ///< tsph validate: some check failed
 
 /// Parses the command line; returns the exit status if the program should stop now
 /// (0 after --help, kExitBadInput after a parse error, whose message CLI11 printed).

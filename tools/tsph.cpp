@@ -6,13 +6,15 @@
 //   tsph table1 [BAR_CASE] [--set key=value]... [--out DIR]     (tools/tsph_table1.cpp)
 //   tsph spectrum CASE [--set key=value]... [--out DIR]         (tools/tsph_spectrum.cpp)
 //   tsph converge CASE --sweep KEY=V1,V2,... [--out DIR]        (tools/tsph_converge.cpp)
+//   tsph validate [NAME...] [--quick] [--out DIR] [--list]      (tools/tsph_validate.cpp)
 //   tsph --version
 //
 // Exit status: 0 success, 2 bad input (case file, overrides, output directory, a run
 // whose estimated memory or output size exceeds the machine's), 3 the run diverged or
-// did not come to rest, 1 other failure: an output file that cannot be written (disk
-// full, permission; the frames and checkpoint written before are kept) or a run
-// stopped by SIGINT/SIGTERM/SIGHUP (which still writes its last frame and summary.json).
+// did not come to rest, 4 (validate) a check of the suite failed, 1 other failure: an
+// output file that cannot be written (disk full, permission; the frames and checkpoint
+// written before are kept) or a run stopped by SIGINT/SIGTERM/SIGHUP (which still
+// writes its last frame and summary.json).
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/case/failure_summary.hpp"  // issue 15
@@ -315,7 +317,8 @@ int main(int argc, char** argv) {
   add_case_options(check_cmd);
   check_cmd->add_flag("--ignore-limits", o.ignore_limits,
                       "build the case even if it exceeds the machine's memory or disk");
-  const cli::Subcommand studies[] = {cli::add_table1(app), cli::add_spectrum(app), cli::add_converge(app)};
+  const cli::Subcommand studies[] = {cli::add_table1(app), cli::add_spectrum(app), cli::add_converge(app),
+                                     cli::add_validate(app, argc, argv)};
   if (const auto stop = cli::parse(app, argc, argv)) return *stop;
   for (const auto& study : studies)
     if (study.app->parsed()) return study.run();

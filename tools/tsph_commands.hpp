@@ -22,6 +22,10 @@ Subcommand add_spectrum(CLI::App& app);
 /// `tsph converge CASE --sweep KEY=V1,V2,...`: a convergence study (tools/tsph_converge.cpp).
 Subcommand add_converge(CLI::App& app);
 
+/// `tsph validate [NAME...]`: the large-deformation validation suite
+/// (tools/tsph_validate.cpp); argv is kept for the command line in its table.
+Subcommand add_validate(CLI::App& app, int argc, char** argv);
+
 /// The JSON text of a string, quoted.
 std::string json_quote(const std::string& text);
 

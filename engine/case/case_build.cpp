@@ -1,5 +1,6 @@
 #include "engine/case/case_build.hpp"
 
+#include "engine/affine_motion.hpp"
 #include "engine/lattice.hpp"
 #include "engine/parallel.hpp"
 #include "engine/particle_file.hpp"
@@ -189,7 +190,16 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
     }
     if (s.type == "fixed") b.conditions.push_back(BoundaryCondition<Dim>::fixed(s.name));
     else if (s.type == "free") b.conditions.push_back(BoundaryCondition<Dim>::free(s.name));
-    else if (s.type == "velocity")
+    else if (s.type == "velocity" && !s.velocity_gradient.empty()) {
+      // v = value + G x along the exact affine motion (engine/affine_motion.hpp).
+      Matrix<Dim> g;
+      for (int r = 0; r < Dim; ++r)
+        for (int k = 0; k < Dim; ++k) g(r, k) = s.velocity_gradient[static_cast<std::size_t>(r * Dim + k)];
+      const AffineMotion<Dim> motion(g, to_vector<Dim>(s.value));
+      // A time function scales `value` only, which is zero when one is given (case_file.cpp).
+      b.conditions.push_back(BoundaryCondition<Dim>::velocity_field(
+          [motion](const Vec& x0, double t) { return motion.velocity(x0, t); }, s.name));
+    } else if (s.type == "velocity")
       b.conditions.push_back(BoundaryCondition<Dim>::velocity(components, s.name, profile));
     else
       b.conditions.push_back(BoundaryCondition<Dim>::traction(components, s.name, profile));

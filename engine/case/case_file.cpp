@@ -306,6 +306,25 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     } else {
       s.value.assign(dim, 0.0);
     }
+    if (b.has("velocity_gradient")) {  // v = value f(t) + G x (engine/affine_motion.hpp)
+      if (s.type != "velocity") {
+        context.invalid(b.get("velocity_gradient", false, ""), b.path("velocity_gradient"),
+                        "applies to type = \"velocity\" only (v = value f(t) + G x); remove it or "
+                        "change the type");
+      } else {
+        s.velocity_gradient = b.numbers("velocity_gradient", true, dim * dim, "row by row, 1/s")
+                                  .value_or(std::vector<double>{});
+        const bool moving_value = std::any_of(s.value.begin(), s.value.end(), [](double v) { return v != 0.0; });
+        if (!s.velocity_gradient.empty() && moving_value && s.time.type != "constant")
+          context.invalid(b.get("velocity_gradient", false, ""), b.path("velocity_gradient"),
+                          "needs time.type = \"constant\" when value is non-zero (the motion of "
+                          "v = value + G x is integrated exactly only for a constant value); set "
+                          "value = zeros or remove the time function");
+        if (!s.velocity_gradient.empty() && s.profile != "uniform")
+          context.invalid(b.get("velocity_gradient", false, ""), b.path("velocity_gradient"),
+                          "cannot be combined with profile = \"" + s.profile + "\"");
+      }
+    }
     const bool by_group = std::any_of(s.regions.begin(), s.regions.end(),
                                       [](const RegionSpec& r) { return r.type == "group"; });
     if (by_group && c.particle_file.empty())

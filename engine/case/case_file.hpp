@@ -51,6 +51,9 @@ struct BoundarySpec {
   std::vector<double> value;  ///< Dim components (velocity in m/s, traction in Pa)
   TimeFunctionSpec time;
   std::string profile = "uniform";  ///< uniform | cantilever_shear
+  /// velocity only: G, Dim x Dim row by row (empty: none); the condition prescribes
+  /// v = value f(t) + G x, x the current position (engine/affine_motion.hpp).
+  std::vector<double> velocity_gradient;
 };
 
 struct ProbeSpec {

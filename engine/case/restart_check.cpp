@@ -126,6 +126,7 @@ std::string physics_record(const CaseFile& c) {
     }
     r.add(p + "value", b.value);
     r.add_text(p + "profile", b.profile);
+    if (!b.velocity_gradient.empty()) r.add(p + "velocity_gradient", b.velocity_gradient);
     r.add_text(p + "time.type", b.time.type);
     if (b.time.type == "pulse" || b.time.type == "ramp") {
       r.add(p + "time.start", b.time.start);

@@ -1,0 +1,177 @@
+// Homogeneous large strain (issue 14): the closed-form Jaumann stresses of
+// engine/validation/homogeneous.hpp against a fine RK4 integration of the same ODE, the
+// exact affine motion of engine/affine_motion.hpp, and the `velocity_gradient` key of a
+// velocity boundary (docs/cases.md): read, refused where it does not apply, and imposed
+// as v = value + G x at the particles' current positions.
+#include "engine/affine_motion.hpp"
+#include "engine/case/case_build.hpp"
+#include "engine/case/case_file.hpp"
+#include "engine/validation/homogeneous.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace {
+
+using namespace tsph;
+
+constexpr double kYoung = 1e6, kNu = 0.3;
+const double kShear = kYoung / (2 * (1 + kNu)), kLame = kYoung * kNu / ((1 + kNu) * (1 - 2 * kNu));
+
+TEST(MatrixExponential, MatchesClosedForms) {
+  Eigen::Matrix2d spin;
+  const double angle = 7.3;  // more than a turn: scaling and squaring
+  spin << 0, -angle, angle, 0;
+  Eigen::Matrix2d rotation;
+  rotation << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+  EXPECT_LT((matrix_exponential<2>(spin) - rotation).norm(), 1e-13);
+  Eigen::Matrix3d diagonal = Eigen::Vector3d(0.4, -2.0, 3.5).asDiagonal();
+  const Eigen::Matrix3d expected = Eigen::Vector3d(std::exp(0.4), std::exp(-2.0), std::exp(3.5)).asDiagonal();
+  EXPECT_LT((matrix_exponential<3>(diagonal) - expected).norm(), 1e-13 * expected.norm());
+  Eigen::Matrix2d shear;  // nilpotent: exp = I + G
+  shear << 0, 5, 0, 0;
+  EXPECT_LT((matrix_exponential<2>(shear) - (Eigen::Matrix2d::Identity() + shear)).norm(), 1e-14);
+}
+
+TEST(AffineMotion, FollowsTheVelocityField) {
+  Eigen::Matrix2d g;
+  g << 0.3, 0.7, -0.2, -0.1;
+  const AffineMotion<2> motion(g, Eigen::Vector2d(0.5, -1.0));
+  const Eigen::Vector2d x0(0.3, -0.4);
+  EXPECT_LT((motion.position(x0, 0.0) - x0).norm(), 1e-15);
+  for (double t : {0.5, 2.0, 6.0}) {  // dx/dt = a + G x along the motion
+    const double h = 1e-5;
+    const Eigen::Vector2d rate = (motion.position(x0, t + h) - motion.position(x0, t - h)) / (2 * h);
+    EXPECT_LT((rate - motion.velocity(x0, t)).norm(), 1e-8) << t;
+  }
+  Eigen::Matrix2d simple_shear;  // x(t) = x0 + gamma_dot t y0
+  simple_shear << 0, 0.1, 0, 0;
+  const AffineMotion<2> shear(simple_shear, Eigen::Vector2d::Zero());
+  EXPECT_LT((shear.position(x0, 50.0) - Eigen::Vector2d(0.3 - 5 * 0.4, -0.4)).norm(), 1e-13);
+}
+
+// The closed forms equal a fine RK4 integration of the Jaumann ODE (to 1e-9 of mu).
+TEST(HomogeneousClosedForms, MatchRk4OfTheJaumannOde) {
+  const double rate = 0.05, t = std::log(1.5) / rate;
+  Eigen::Matrix3d stretch = Eigen::Vector3d(rate, -kNu * rate, -kNu * rate).asDiagonal();
+  EXPECT_LT((homogeneous::uniaxial_stress(kYoung, std::log(1.5)) - homogeneous::jaumann_rk4(kLame, kShear, stretch, t, 200))
+                .norm(), 1e-9 * kShear);
+  Eigen::Matrix3d compress = Eigen::Vector3d(-rate, kNu * rate, kNu * rate).asDiagonal();
+  const double tc = std::log(0.7) / -rate;
+  EXPECT_LT((homogeneous::uniaxial_stress(kYoung, std::log(0.7)) - homogeneous::jaumann_rk4(kLame, kShear, compress, tc, 200))
+                .norm(), 1e-9 * kShear);
+  Eigen::Matrix3d strain = Eigen::Matrix3d::Zero();
+  strain(0, 0) = rate;
+  EXPECT_LT((homogeneous::uniaxial_strain(kLame, kShear, std::log(1.5)) - homogeneous::jaumann_rk4(kLame, kShear, strain, t, 200))
+                .norm(), 1e-9 * kShear);
+  for (double gamma : {0.5, M_PI / 2, 3.0, 5.0}) {
+    Eigen::Matrix3d shear = Eigen::Matrix3d::Zero();
+    shear(0, 1) = 0.1;
+    const Eigen::Matrix3d rk4 = homogeneous::jaumann_rk4(kLame, kShear, shear, gamma / 0.1, 4000);
+    EXPECT_LT((homogeneous::simple_shear(kShear, gamma) - rk4).norm(), 1e-9 * kShear) << gamma;
+  }
+  // ... and the RK4 is itself checked: a coarse one misses by its own O(dt^4) error.
+  Eigen::Matrix3d shear = Eigen::Matrix3d::Zero();
+  shear(0, 1) = 0.1;
+  EXPECT_GT((homogeneous::simple_shear(kShear, 5.0) - homogeneous::jaumann_rk4(kLame, kShear, shear, 50.0, 4)).norm(),
+            1e-3 * kShear);
+}
+
+const std::string kBlock = R"(
+dimension = 2
+[geometry]
+spacing = 0.1
+box = { lower = [-0.5, -0.5], upper = [0.5, 0.5] }
+[material]
+E = 1e6
+nu = 0.3
+rho = 1000.0
+[method]
+alpha = 0.6
+kinematics = "updated_lagrangian"
+[time]
+end = 0.1
+cfl = 0.9
+[[boundary]]
+name = "affine"
+type = "velocity"
+region = { type = "all" }
+)";
+
+std::string error_of(const std::string& text) {
+  try {
+    load_case_text(text, "block.toml");
+  } catch (const CaseError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(VelocityGradientKey, IsReadAndRefusedWhereItDoesNotApply) {
+  const CaseFile c = load_case_text(kBlock + "value = [0.0, 0.0]\nvelocity_gradient = [0.0, 0.1, 0.0, 0.0]\n", "block.toml");
+  ASSERT_EQ(c.boundaries.size(), 1u);
+  EXPECT_EQ(c.boundaries[0].velocity_gradient, (std::vector<double>{0.0, 0.1, 0.0, 0.0}));
+  // Not on a traction or fixed condition.
+  std::string e = error_of(R"(
+dimension = 2
+[geometry]
+spacing = 0.1
+box = { lower = [0.0, 0.0], upper = [1.0, 1.0] }
+[material]
+E = 1e6
+nu = 0.3
+rho = 1000.0
+[method]
+alpha = 0.6
+[time]
+end = 0.1
+cfl = 0.9
+[[boundary]]
+name = "load"
+type = "traction"
+region = { type = "half_space", point = [1.0, 0.0], normal = [1.0, 0.0] }
+value = [1.0, 0.0]
+velocity_gradient = [0.0, 0.1, 0.0, 0.0]
+)");
+  EXPECT_NE(e.find("velocity_gradient"), std::string::npos) << e;
+  EXPECT_NE(e.find("applies to type = \"velocity\" only"), std::string::npos) << e;
+  // Dimension^2 numbers.
+  e = error_of(kBlock + "value = [0.0, 0.0]\nvelocity_gradient = [0.0, 0.1, 0.0]\n");
+  EXPECT_NE(e.find("velocity_gradient"), std::string::npos) << e;
+  // A time function with a non-zero value.
+  e = error_of(kBlock + "value = [1.0, 0.0]\nvelocity_gradient = [0.0, 0.1, 0.0, 0.0]\ntime = { type = \"ramp\", end = 1.0 }\n");
+  EXPECT_NE(e.find("time.type = \"constant\""), std::string::npos) << e;
+}
+
+// Imposed at every particle: after 40 steps of a block whose particles all carry
+// v = a + G x (stretch and spin), each real particle moves at a + G x at its current
+// position (to the trapezoidal rule's error in the positions) and the condition's
+// velocity is exact along the motion.
+TEST(VelocityGradientKey, ImposesTheAffineFieldAtTheCurrentPositions) {
+  const std::string text = kBlock + "value = [0.2, -0.1]\nvelocity_gradient = [0.5, -1.0, 2.0, -0.3]\n"
+                                    "[initial]\nvelocity = [0.2, -0.1]\nvelocity_gradient = [0.5, -1.0, 2.0, -0.3]\n";
+  const CaseFile c = load_case_text(text, "block.toml");
+  BuiltCase<2> b = build_case<2>(c);
+  Eigen::Matrix2d g;
+  g << 0.5, -1.0, 2.0, -0.3;
+  const Eigen::Vector2d a(0.2, -0.1);
+  const AffineMotion<2> motion(g, a);
+  ASSERT_EQ(b.conditions.size(), 1u);
+  const Eigen::Vector2d x0(0.3, 0.5);
+  EXPECT_LT((b.conditions[0].prescribed(x0, Eigen::Vector2d::Ones(), 0.7) - motion.velocity(x0, 0.7)).norm(), 1e-14);
+  const double dt = b.dt;
+  TaylorSph<2> solver = make_solver(c, b);
+  for (int k = 0; k < 40; ++k) solver.step(dt);
+  const auto& r = solver.real();
+  double worst = 0.0;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    const Eigen::Vector2d x = r.position_of(i);
+    const Eigen::Vector2d v(r.velocity[0][i], r.velocity[1][i]);
+    worst = std::max(worst, (v - (a + g * x)).norm());
+  }
+  EXPECT_LT(worst, 1e-5 * (a.norm() + g.norm()));
+}
+
+}  // namespace

@@ -1,0 +1,261 @@
+// tsph validate [NAME...] [--quick] [--out DIR] [--cases DIR] [--list] [--threads N]:
+// the large-deformation validation suite (issue 14; docs/validation.md, "Large
+// deformation (tsph validate)"). Runs the selected cases (all by default; NAME is a
+// case name or the beginning of some, e.g. "homogeneous" or "rotation_2d"), prints one
+// row per check (case, figure, value, reference, error, tolerance, verdict), and writes
+//   OUT/<case>/<series>.csv    the curves of each case (tools/validate/validation_case.hpp)
+//   OUT/<case>/run/            the case's run (VTU frames, summary.json)
+//   OUT/table.md               the table, dated, with the command
+//   OUT/validate.json          the same, for programs
+//   OUT/<case>/<series>.png    drawn by tools/plot_validation.py (python3 + matplotlib)
+// Exit status: 0 every check passed, 4 some check failed (a case that diverged is a
+// failed "no divergence" check), 2 bad input (an unknown case name lists the valid
+// ones), 1 other failure (an output file that cannot be written).
+#include "tools/cli_common.hpp"
+#include "tools/tsph_commands.hpp"
+#include "tools/validate/validation_case.hpp"
+
+#include "engine/case/case_file.hpp"
+#include "engine/output_file.hpp"
+#include "engine/threads.hpp"
+
+#include <fmt/core.h>
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#ifndef TSPH_VERSION
+#define TSPH_VERSION "unknown"
+#endif
+#ifndef TSPH_CASES_DIR
+#define TSPH_CASES_DIR "tools/cases"
+#endif
+#ifndef TSPH_TOOLS_DIR
+#define TSPH_TOOLS_DIR "tools"
+#endif
+
+namespace tsph::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using validate::Case;
+using validate::Check;
+using validate::Result;
+
+/// Every registered case, group by group: the one list to extend.
+std::vector<Case> registered_cases() {
+  std::vector<Case> all;
+  for (auto group : {validate::homogeneous_cases, validate::rotation_cases}) {
+    auto cases = group();
+    all.insert(all.end(), cases.begin(), cases.end());
+  }
+  return all;
+}
+
+struct ValidateOptions {
+  std::vector<std::string> names;
+  bool quick = false, list = false;
+  std::string out = "out/validate";
+  std::string cases_dir = TSPH_CASES_DIR;
+  int threads = 0;
+  std::string command;  ///< the command line, for table.md
+};
+
+struct CaseOutcome {
+  std::string name, description;
+  Result result;
+  double wall_seconds = 0.0;
+  std::string error;  ///< the case could not run (an exception), else empty
+};
+
+std::string number(double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : "nan"; }
+std::string json_number(double v) { return std::isfinite(v) ? fmt::format("{:.17g}", v) : "null"; }
+
+std::string verdict(const Check& c) { return c.pass ? "PASS" : "FAIL"; }
+
+void print_row(const std::string& name, const Check& c) {
+  fmt::print("{:<32} {:<62} {:>13} {:>13} {:>10} {:>9} {:>4} {}\n", name, c.figure, number(c.value), number(c.reference),
+             number(c.error), number(c.tolerance), c.error_kind, verdict(c));
+}
+
+void write_series(const fs::path& dir, const validate::Series& s) {
+  std::string text = "# " + s.title + "\n# x: " + s.x_label + "; y: " + s.y_label + "\n";
+  for (std::size_t k = 0; k < s.columns.size(); ++k) text += (k ? "," : "") + s.columns[k];
+  text += "\n";
+  for (const auto& row : s.rows) {
+    for (std::size_t k = 0; k < row.size(); ++k) text += (k ? "," : "") + fmt::format("{:.12g}", row[k]);
+    text += "\n";
+  }
+  write_file_atomically(dir / (s.name + ".csv"), text);
+}
+
+std::string today() {
+  const std::time_t now = std::time(nullptr);
+  char buffer[32];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+  return buffer;
+}
+
+int run_validate(const ValidateOptions& o) {
+  const std::vector<Case> all = registered_cases();
+  if (o.list) {
+    for (const auto& c : all) fmt::print("{:<32} {}{}\n", c.name, c.description, c.slow ? " (slow)" : "");
+    return kExitOk;
+  }
+  if (const auto error = thread_count_error("--threads", o.threads)) {
+    fmt::print(stderr, "tsph: error: {}\n", *error);
+    return kExitBadInput;
+  }
+  std::error_code ec;
+  if (!fs::is_directory(o.cases_dir, ec)) {
+    fmt::print(stderr, "tsph: error: --cases '{}' is not a directory: give the directory of the case files (tools/cases)\n",
+               o.cases_dir);
+    return kExitBadInput;
+  }
+  // The selection: every case whose name is, or begins with, a NAME; all when none given.
+  std::vector<const Case*> selected;
+  for (const auto& name : o.names) {
+    bool found = false;
+    for (const auto& c : all)
+      if (c.name.rfind(name, 0) == 0) {
+        found = true;
+        if (std::find(selected.begin(), selected.end(), &c) == selected.end()) selected.push_back(&c);
+      }
+    if (!found) {
+      std::string valid;
+      for (const auto& c : all) valid += "\n  " + c.name;
+      fmt::print(stderr, "tsph: error: validate: no case is named '{}' or begins so; the cases are:{}\n", name, valid);
+      return kExitBadInput;
+    }
+  }
+  if (o.names.empty())
+    for (const auto& c : all) selected.push_back(&c);
+  if (!prepare_output_directory("tsph", o.out)) return kExitBadInput;
+
+  fmt::print("{:<32} {:<62} {:>13} {:>13} {:>10} {:>9} {:>4} {}\n", "case", "figure", "value", "reference", "error",
+             "tolerance", "kind", "verdict");
+  std::vector<CaseOutcome> outcomes;
+  for (const Case* c : selected) {
+    CaseOutcome outcome{c->name, c->description, {}, 0.0, ""};
+    const fs::path dir = fs::path(o.out) / c->name;
+    if (!fresh_directory("tsph", dir.string())) return kExitBadInput;
+    validate::Options options;
+    options.cases_dir = o.cases_dir;
+    options.out_dir = dir.string();
+    options.quick = o.quick;
+    options.threads = o.threads;
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      outcome.result = c->run(options);
+    } catch (const CaseError& e) {
+      outcome.error = std::string("bad case: ") + e.what();
+    } catch (const std::exception& e) {
+      outcome.error = e.what();
+    }
+    outcome.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!outcome.error.empty()) {
+      Check failed;
+      failed.figure = "the case ran";
+      failed.value = std::nan("");
+      failed.error_kind = "abs";
+      outcome.result.checks.push_back(failed);
+      outcome.result.notes.push_back(outcome.error);
+    }
+    for (const auto& check : outcome.result.checks) print_row(c->name, check);
+    for (const auto& note : outcome.result.notes) fmt::print("  {}: {}\n", c->name, note);
+    std::fflush(stdout);
+    try {
+      for (const auto& s : outcome.result.series) write_series(dir, s);
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "tsph: failed: {}\n", e.what());
+      return kExitFailure;
+    }
+    outcomes.push_back(std::move(outcome));
+  }
+
+  // The summary: table.md and validate.json.
+  int passed = 0, failed = 0;
+  std::string table = fmt::format("Validation suite, {} (tsph {}{}), measured {}:\n\n    {}\n\n", o.quick ? "quick" : "full",
+                                  TSPH_VERSION, "", today(), o.command);
+  table += "| case | figure | value | reference | error | tolerance | verdict |\n| --- | --- | --- | --- | --- | --- | --- |\n";
+  std::string json_cases;
+  for (const auto& outcome : outcomes) {
+    std::string json_checks;
+    for (const auto& c : outcome.result.checks) {
+      (c.pass ? passed : failed)++;
+      table += fmt::format("| {} | {} | {} | {} | {} ({}) | {} | {} |\n", outcome.name, c.figure, number(c.value),
+                           number(c.reference), number(c.error), c.error_kind, number(c.tolerance), verdict(c));
+      json_checks += fmt::format("{}\n        {{\"figure\": {}, \"value\": {}, \"reference\": {}, \"error\": {}, "
+                                 "\"error_kind\": {}, \"tolerance\": {}, \"pass\": {}}}",
+                                 json_checks.empty() ? "" : ",", json_quote(c.figure), json_number(c.value),
+                                 json_number(c.reference), json_number(c.error), json_quote(c.error_kind),
+                                 json_number(c.tolerance), c.pass ? "true" : "false");
+    }
+    std::string json_notes;
+    for (const auto& n : outcome.result.notes) json_notes += (json_notes.empty() ? "" : ", ") + json_quote(n);
+    json_cases += fmt::format("{}\n    {{\"name\": {}, \"description\": {}, \"wall_seconds\": {:.3f}, \"checks\": [{}\n      ], "
+                              "\"notes\": [{}]}}",
+                              json_cases.empty() ? "" : ",", json_quote(outcome.name), json_quote(outcome.description),
+                              outcome.wall_seconds, json_checks, json_notes);
+  }
+  table += "\n";
+  for (const auto& outcome : outcomes) {
+    table += fmt::format("- {} ({:.1f} s): {}\n", outcome.name, outcome.wall_seconds, outcome.description);
+    for (const auto& n : outcome.result.notes) table += "  - " + n + "\n";
+  }
+  try {
+    write_file_atomically(fs::path(o.out) / "table.md", table);
+    write_file_atomically(fs::path(o.out) / "validate.json",
+                          fmt::format("{{\n  \"schema\": \"tsph.validate/1\",\n  \"version\": {},\n  \"command\": {},\n"
+                                      "  \"date\": {},\n  \"quick\": {},\n  \"passed\": {},\n  \"failed\": {},\n"
+                                      "  \"cases\": [{}\n  ]\n}}\n",
+                                      json_quote(TSPH_VERSION), json_quote(o.command), json_quote(today()),
+                                      o.quick ? "true" : "false", passed, failed, json_cases));
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "tsph: failed: {}\n", e.what());
+    return kExitFailure;
+  }
+  fmt::print("{} checks passed, {} failed; table.md, validate.json and the series in {}\n", passed, failed, o.out);
+
+  // The plots: optional (python3 with matplotlib).
+  const std::string script = std::string(TSPH_TOOLS_DIR) + "/plot_validation.py";
+  if (std::system("python3 -c 'import matplotlib' >/dev/null 2>&1") != 0) {
+    fmt::print(stderr, "tsph: validate: no plots: python3 with matplotlib is missing (pip install matplotlib, then "
+                       "python3 {} {})\n", script, o.out);
+  } else if (std::system(fmt::format("python3 '{}' '{}'", script, o.out).c_str()) != 0) {
+    fmt::print(stderr, "tsph: validate: {} failed; the table and the CSV series are written\n", script);
+  }
+  return failed == 0 ? kExitOk : kExitValidationFailed;
+}
+
+}  // namespace
+
+Subcommand add_validate(CLI::App& app, int argc, char** argv) {
+  auto o = std::make_shared<ValidateOptions>();
+  for (int k = 0; k < argc; ++k) o->command += (k ? " " : "") + std::string(argv[k]);
+  CLI::App* sub = app.add_subcommand("validate", "the large-deformation validation suite: cases against exact and "
+                                                 "reference solutions, a table, CSV series and plots");
+  sub->add_option("NAME", o->names, "cases to run: a name, or the beginning of names (default: all; --list)");
+  sub->add_flag("--quick", o->quick, "the fast versions (coarser, shorter; the default ctest suite)");
+  sub->add_option("--out", o->out, "output directory (default: out/validate)");
+  sub->add_option("--cases", o->cases_dir, "directory of the case files (default: the source tree's tools/cases)");
+  sub->add_flag("--list", o->list, "list the cases and exit");
+  sub->add_option("--threads", o->threads, "OpenMP threads (0: each case's threads)")->check(CLI::NonNegativeNumber);
+  return {sub, [o] {
+            try {
+              return run_validate(*o);
+            } catch (const std::exception& e) {
+              fmt::print(stderr, "tsph: failed: {}\n", e.what());
+              return kExitFailure;
+            }
+          }};
+}
+
+}  // namespace tsph::cli
