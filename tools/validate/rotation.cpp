@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 namespace tsph::validate {
 namespace {
@@ -90,6 +91,21 @@ FrameFigures measure(const output::VtuFrame& f, const std::vector<double>& mass)
     sum += (x - rotation * X).squaredNorm();
   }
   r.shape_rms = std::sqrt(sum / static_cast<double>(n));
+  if (std::getenv("TSPH_VALIDATE_DEBUG")) {  // which particle and field deviate first
+    double worst_v = 0.0, worst_s = 0.0;
+    std::size_t iv = 0, is = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d x = Eigen::Vector3d(f.points[3 * i], f.points[3 * i + 1], f.points[3 * i + 2]) - centre;
+      const Eigen::Vector3d rigid = kOmega * Eigen::Vector3d::UnitZ().cross(x);
+      const double dv = (Eigen::Vector3d(v[3 * i], v[3 * i + 1], v[3 * i + 2]) - rigid).norm();
+      if (dv > worst_v) { worst_v = dv; iv = i; }
+      const double* p = stress.data() + 6 * i;
+      const double sn = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + 2 * (p[3] * p[3] + p[4] * p[4] + p[5] * p[5]));
+      if (sn > worst_s) { worst_s = sn; is = i; }
+    }
+    fmt::print(stderr, "  |v - rigid| max {:.3e} m/s at X = ({:.3g}, {:.3g}, {:.3g}); |sigma| max {:.3e} Pa at X = ({:.3g}, {:.3g}, {:.3g}); shape rms {:.3e}\n",
+               worst_v, x0[3 * iv], x0[3 * iv + 1], x0[3 * iv + 2], worst_s, x0[3 * is], x0[3 * is + 1], x0[3 * is + 2], r.shape_rms);
+  }
   r.angle = std::atan2(rotation(1, 0), rotation(0, 0));
   return r;
 }
@@ -97,7 +113,7 @@ FrameFigures measure(const output::VtuFrame& f, const std::vector<double>& mass)
 Result run_rotation(const RotationSpec& s, const Options& o) {
   const double turn = 2.0 * M_PI / kOmega;
   const int turns = o.quick ? 1 : 3;
-  const int frames_per_turn = 12;
+  const int frames_per_turn = std::getenv("TSPH_VALIDATE_FRAMES") ? std::atoi(std::getenv("TSPH_VALIDATE_FRAMES")) : 12;
   const double end = turns * turn;
   std::vector<std::string> overrides = {fmt::format("method.alpha={}", s.alpha), fmt::format("time.end={:.17g}", end),
                                         output_times(end, turns * frames_per_turn)};
@@ -124,6 +140,7 @@ Result run_rotation(const RotationSpec& s, const Options& o) {
   double worst_momentum = 0.0, worst_shape = 0.0, worst_stress = 0.0, worst_lag = 0.0;
   double l0 = 0.0;
   for (std::size_t k = 0; k < run.frames.size(); ++k) {
+    if (std::getenv("TSPH_VALIDATE_DEBUG")) fmt::print(stderr, "t = {:.5g} s:\n", run.frame_times[k]);
     const FrameFigures fig = measure(run.frames[k], mass);
     if (k == 0) l0 = fig.angular_momentum;
     const double momentum = std::abs(fig.angular_momentum - l0) / std::abs(l0);
@@ -172,7 +189,7 @@ Result run_rotation(const RotationSpec& s, const Options& o) {
   }
   result.notes.push_back(fmt::format("sigma_c = rho omega^2 R^2 / 2 = {:.4g} Pa; {} steps, dt = {:.4g} s, {} particles, {:.2f} s wall",
                                      sigma_c, run.diverged ? static_cast<std::int64_t>(run.steps.size()) : run.report.steps,
-                                     run.diverged ? 0.0 : run.report.dt, run.diverged ? mass.size() : run.report.real_particles,
+                                     case_time_step(c), mass.size(),
                                      run.wall_seconds));
   result.series.push_back(std::move(history));
   return result;
