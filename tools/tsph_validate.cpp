@@ -16,6 +16,7 @@
 #include "tools/validate/validation_case.hpp"
 
 #include "engine/case/case_file.hpp"
+#include "engine/case/case_run.hpp"
 #include "engine/output_file.hpp"
 #include "engine/threads.hpp"
 
@@ -154,6 +155,15 @@ int run_validate(const ValidateOptions& o) {
     const auto start = std::chrono::steady_clock::now();
     try {
       outcome.result = c->run(options);
+    } catch (const RunDiverged& e) {  // a case that lets it through: a failed "no divergence" row
+      Check diverged;
+      diverged.figure = "no divergence";
+      diverged.value = 0.0;
+      diverged.reference = 1.0;
+      diverged.error = 1.0;
+      diverged.error_kind = "abs";
+      outcome.result.checks.push_back(diverged);
+      outcome.result.notes.push_back(std::string("diverged: ") + e.what());
     } catch (const CaseError& e) {
       outcome.error = std::string("bad case: ") + e.what();
     } catch (const std::exception& e) {

@@ -10,6 +10,10 @@
 #include <filesystem>
 #include <stdexcept>
 
+#ifndef TSPH_VERSION
+#define TSPH_VERSION "unknown"
+#endif
+
 namespace tsph::validate {
 
 namespace fs = std::filesystem;
@@ -27,7 +31,7 @@ CaseRun run_case_file(const Options& options, const std::string& file, const std
   RunOptions o;
   o.out_dir = dir.string();
   o.quiet = options.quiet;
-  o.version = "validate";
+  o.version = TSPH_VERSION;
   o.overrides = overrides;
   o.on_frame = [&run](const output::VtuFrame& frame, double t) {
     run.frame_times.push_back(t);
