@@ -161,10 +161,11 @@ Result twisting_column(const Options& o) {
       c.pass = !r.diverged && c.error <= c.tolerance;
       result.checks.push_back(c);
     }
-    double gain = -std::numeric_limits<double>::infinity(), when = 0.0;
+    double gain = -std::numeric_limits<double>::infinity(), when = 0.0, onset = std::nan("");
     for (const auto& e : r.energies) {
       const double g = (e.kinetic_energy + e.strain_energy) / r.initial_energy - 1.0;
       if (g > gain) gain = g, when = e.time;
+      if (g > 1e-3 && std::isnan(onset)) onset = e.time;
     }
     {
       Check c;
@@ -196,10 +197,11 @@ Result twisting_column(const Options& o) {
         (r.diverged ? fmt::format("{}: DIVERGED at step {} (t = {:.5g} s): {}", where, r.steps, r.time_reached, r.message)
                     : fmt::format("{}: {} steps to t = {:.5g} s in {:.1f} s", where, r.steps, r.time_reached,
                                   r.wall_seconds)) +
-        fmt::format("; E/E0 at the end {:.5f}, largest gain {:+.3e} at t = {:.4g} s; first tip rotation peak {:.4g} rad "
+        fmt::format("; E/E0 at the end {:.5f}, largest gain {:+.3e} at t = {:.4g} s, first above E0 (1 + 1e-3) at "
+                    "t = {:.4g} s; first tip rotation peak {:.4g} rad "
                     "at t = {:.4g} s (linear: {:.4g} rad at {:.4g} s); angular momentum about the axis {:.5g} -> {:.5g} "
                     "kg m^2/s; hourglass u RMS/dx largest {:.3e}",
-                    final_energy, gain, when, peak, peak_time, column.linear_tip_rotation(omega0), period / 4.0,
+                    final_energy, gain, when, onset, peak, peak_time, column.linear_tip_rotation(omega0), period / 4.0,
                     r.frames.empty() ? std::nan("") : r.frames.front().angular_momentum,
                     r.frames.empty() ? std::nan("") : r.frames.back().angular_momentum, hourglass));
   }
