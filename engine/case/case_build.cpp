@@ -8,6 +8,7 @@
 #include "engine/time_function.hpp"
 #include "engine/validation/bar.hpp"
 #include "engine/validation/cantilever.hpp"
+#include "engine/validation/plate.hpp"
 
 #include <algorithm>
 #include <array>
@@ -119,6 +120,33 @@ double case_wave_speed(const CaseFile& c) {
 
 double case_time_step(const CaseFile& c) { return c.dt > 0.0 ? c.dt : c.cfl * c.spacing / case_wave_speed(c); }
 
+namespace {
+
+/// The velocity of the case's beam mode shapes at x0 ([initial.profile] types
+/// "cantilever_mode" and "twist", docs/cases.md): s the distance along the axis from the
+/// clamp, zero behind it (s < 0).
+template <int Dim>
+Vector<Dim> shape_velocity(const CaseFile& c, const Vector<Dim>& x0) {
+  Vector<Dim> v = Vector<Dim>::Zero();
+  for (const VelocityShape& shape : c.velocity_shapes) {
+    const Vector<Dim> axis = to_vector<Dim>(shape.axis).normalized();
+    const Vector<Dim> r = x0 - to_vector<Dim>(shape.origin);
+    const double s = r.dot(axis);
+    if (s < 0.0) continue;
+    if (shape.type == "cantilever_mode") {
+      // Reference section 3: v = V phi_n(s / L), phi_n(1) = 1.
+      const double kl = cantilever_mode_wavenumber(static_cast<int>(shape.mode));
+      v += to_vector<Dim>(shape.amplitude) * cantilever_mode_shape(kl, s / shape.length);
+    } else if constexpr (Dim == 3) {
+      // Reference section 4: v = omega0 sin(pi s / (2 L)) a x r.
+      v += shape.angular_velocity * std::sin(M_PI * s / (2.0 * shape.length)) * axis.cross(r);
+    }
+  }
+  return v;
+}
+
+}  // namespace
+
 template <int Dim>
 BuiltCase<Dim> build_case(const CaseFile& c) {
   using Vec = Vector<Dim>;
@@ -162,6 +190,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
         const Vec n = to_vector<Dim>(w.direction).normalized();
         v += to_vector<Dim>(w.amplitude) * std::sin(2.0 * M_PI * x0.dot(n) / w.wavelength + w.phase);
       }
+      v += shape_velocity<Dim>(c, x0);
       for (int d = 0; d < Dim; ++d) set->velocity[d][i] += v[d];
       for (int s = 0; s < stress_component_count<Dim>; ++s)
         set->stress[s][i] += c.initial_stress[static_cast<std::size_t>(s)];

@@ -341,16 +341,52 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.initial_stress = i.numbers("stress", false, stress_count,
                                  dim == 2 ? "xx, yy, xy, zz (Pa)" : "xx, yy, zz, xy, yz, zx (Pa)")
                            .value_or(std::vector<double>(stress_count, 0.0));
+    auto nonzero = [&](Table& profile, const std::string& key, const std::vector<double>& v) {
+      if (v.size() == dim && std::all_of(v.begin(), v.end(), [](double x) { return x == 0.0; }))
+        context.invalid(profile.get(key, false, ""), profile.path(key), "must be non-zero");
+    };
+    // A beam's mode shape along an axis (docs/cases.md, [initial.profile]).
+    auto read_shape = [&](Table& profile, const std::string& type) {
+      VelocityShape s;
+      s.type = type;
+      s.origin = profile.numbers("origin", false, dim, "the clamp's point on the axis, m")
+                     .value_or(std::vector<double>(dim, 0.0));
+      s.axis = profile.numbers("axis", true, dim, "along the beam, from the clamp to the free end")
+                   .value_or(std::vector<double>(dim, 0.0));
+      nonzero(profile, "axis", s.axis);
+      s.length = profile.real("length", true, "0.2", positive, kPositive + " (the beam's length L, m)").value_or(1.0);
+      if (type == "cantilever_mode") {
+        if (dim < 2)
+          context.invalid(profile.get("type", false, ""), profile.path("type"),
+                          "'cantilever_mode' needs dimension 2 or 3 (a bending mode)");
+        s.amplitude = profile.numbers("amplitude", true, dim, "the tip's velocity, m/s")
+                          .value_or(std::vector<double>(dim, 0.0));
+        s.mode = profile.integer("mode", false, "1", [](std::int64_t n) { return n >= 1 && n <= 20; },
+                                 "must be an integer from 1 to 20 (1: the first bending mode)")
+                     .value_or(1);
+      } else {  // twist
+        if (dim != 3)
+          context.invalid(profile.get("type", false, ""), profile.path("type"),
+                          "'twist' needs dimension = 3 (a rotation about the axis)");
+        s.angular_velocity = profile.real("angular_velocity", true, "34.0", {}, "").value_or(0.0);
+      }
+      profile.finish();
+      c.velocity_shapes.push_back(std::move(s));
+    };
     auto read_profile = [&](Table profile) {
       VelocityWave w;
-      profile.text("type", true, {"sine"});
+      const std::string type =
+          profile.text("type", true, {"sine", "cantilever_mode", "twist"}).value_or("");
+      if (type.empty()) return;  // reported; its other keys depend on the type
+      if (type != "sine") {
+        read_shape(profile, type);
+        return;
+      }
       w.amplitude = profile.numbers("amplitude", true, dim, "the velocity vector at the crests, m/s")
                         .value_or(std::vector<double>(dim, 0.0));
       w.direction = profile.numbers("direction", true, dim, "along which the profile varies")
                         .value_or(std::vector<double>(dim, 0.0));
-      if (w.direction.size() == dim &&
-          std::all_of(w.direction.begin(), w.direction.end(), [](double v) { return v == 0.0; }))
-        context.invalid(profile.get("direction", false, ""), profile.path("direction"), "must be non-zero");
+      nonzero(profile, "direction", w.direction);
       w.wavelength = profile.real("wavelength", true, "2.0", positive, kPositive + " (m)").value_or(1.0);
       w.phase = profile.real("phase", false, "1.5707963267948966").value_or(0.0);
       profile.finish();

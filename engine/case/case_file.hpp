@@ -67,6 +67,21 @@ struct VelocityWave {
   double wavelength = 1.0, phase = 0.0;
 };
 
+/// [initial.profile] type = "cantilever_mode" or "twist": a beam's velocity field along an
+/// axis from `origin` (the clamp) in direction `axis`, s = (x0 - origin) . axis / |axis|,
+/// zero where s < 0 (behind the clamp).
+struct VelocityShape {
+  std::string type;               ///< cantilever_mode | twist
+  std::vector<double> origin, axis;
+  double length = 1.0;            ///< L (m)
+  /// cantilever_mode: v = amplitude phi_n(s / L), phi_n the clamped-free mode n with
+  /// phi_n(1) = 1 (engine/validation/plate.hpp), so `amplitude` is the tip's velocity.
+  std::vector<double> amplitude;
+  std::int64_t mode = 1;
+  /// twist (3D): v = angular_velocity sin(pi s / (2 L)) a x (x0 - origin), a the unit axis.
+  double angular_velocity = 0.0;
+};
+
 struct CaseFile {
   std::string path;       ///< the case file as given
   std::string directory;  ///< its directory (particle files are relative to it)
@@ -117,6 +132,8 @@ struct CaseFile {
   /// [initial.profile] type = "sine" (or an array [[initial.profile]]: their sum):
   /// v += amplitude sin(2 pi (x0 . direction / |direction|) / wavelength + phase).
   std::vector<VelocityWave> velocity_waves;
+  /// [initial.profile] type = "cantilever_mode" | "twist" (summed with the waves).
+  std::vector<VelocityShape> velocity_shapes;
 
   // [damping]
   double damping = 0.0;

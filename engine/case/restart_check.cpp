@@ -147,6 +147,17 @@ std::string physics_record(const CaseFile& c) {
     r.add(p + "wavelength", w.wavelength);
     r.add(p + "phase", w.phase);
   }
+  for (std::size_t k = 0; k < c.velocity_shapes.size(); ++k) {
+    const VelocityShape& v = c.velocity_shapes[k];
+    const std::string p = fmt::format("initial.shape[{}].", k);
+    r.add_text(p + "type", v.type);
+    r.add(p + "origin", v.origin);
+    r.add(p + "axis", v.axis);
+    r.add(p + "length", v.length);
+    r.add(p + "amplitude", v.amplitude);
+    r.add(p + "mode", static_cast<double>(v.mode));
+    r.add(p + "angular_velocity", v.angular_velocity);
+  }
   r.add("damping.coefficient", c.damping);
   return r.text();
 }

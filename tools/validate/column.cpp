@@ -1,0 +1,289 @@
+// The twisting column (reference section 4) as a validation case:
+// tools/cases/twisting_column.toml through load_case + run_case, updated Lagrangian, at
+// alpha 0.6 and 1.2. No closed form: the checks are stability to the end (four linear
+// torsional periods, 1.432 s), the total energy never above the initial (1e-3 relative)
+// and the hourglass measure (lattice_measures.hpp) below 0.05 dx; reported as series:
+// the angular momentum about the axis, the energies, and the tip rotation (the best-fit
+// rotation of the tip face about the axis) against the linear first torsional mode.
+// Resolutions: full dx = 1/6 (37 x 7 x 7) and 1/12 (73 x 13 x 13), the tip rotation's
+// first peak compared between them; quick dx = 1/4 (25 x 5 x 5) to one linear period.
+#include "engine/case/case_file.hpp"
+#include "engine/case/case_run.hpp"
+#include "engine/validation/twisting_column.hpp"
+#include "tools/validate/lattice_measures.hpp"
+#include "tools/validate/validation_case.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+namespace tsph::validate {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ColumnRun {
+  double alpha = 0.0, dx = 0.0, end_time = 0.0;
+  bool diverged = false;
+  std::string message;
+  double time_reached = 0.0;
+  std::int64_t steps = 0;
+  double wall_seconds = 0.0;
+  double initial_energy = 0.0;  ///< kinetic, from the t = 0 frame (trapezoidal masses)
+  std::vector<RunOptions::StepRecord> energies;
+  struct Frame {
+    double t, angular_momentum, tip_rotation, hourglass_u, hourglass_v;
+  };
+  std::vector<Frame> frames;
+};
+
+ColumnRun run_column(const Options& o, double alpha, double dx, double end_time, int frames,
+                     const std::string& name) {
+  const TwistingColumn column;
+  ColumnRun run;
+  run.alpha = alpha;
+  run.dx = dx;
+  run.end_time = end_time;
+  std::string times = "[";
+  for (int k = 1; k <= frames; ++k) times += fmt::format("{}{:.17g}", k > 1 ? ", " : "", end_time * k / frames);
+  times += "]";
+  const std::vector<std::string> overrides = {
+      fmt::format("geometry.spacing={:.17g}", dx),
+      fmt::format("method.alpha={:.17g}", alpha),
+      fmt::format("time.end={:.17g}", end_time),
+      "output.every=0",
+      "output.fields=[\"velocity\", \"displacement\"]",
+      "output.times=" + times,
+      "output.probe_every=10",
+  };
+  const CaseFile c = load_case((fs::path(o.cases_dir) / "twisting_column.toml").string(), overrides);
+  const fs::path out = fs::path(o.out_dir) / name;
+  fs::remove_all(out);
+  fs::create_directories(out);
+
+  const double half = column.side / 2.0;
+  const std::array<double, 3> lower{0.0, -half, -half}, upper{column.length, half, half};
+  double velocity_scale = 0.0;
+  double unwrapped = 0.0, previous = 0.0;
+  RunOptions options;
+  options.out_dir = out.string();
+  options.quiet = o.quiet;
+  options.on_step = [&](const RunOptions::StepRecord& r) { run.energies.push_back(r); };
+  options.on_frame = [&](const output::VtuFrame& f, double t) {
+    const LatticeFrame<3> lattice(f, lower, upper, dx);
+    const auto& v = frame_array(f, "velocity");
+    const auto& x0 = frame_array(f, "initial_position");
+    const auto& x = f.points;
+    const double cell = column.density * dx * dx * dx;
+    // Angular momentum about the x axis (y = z = 0): sum m (y v_z - z v_y).
+    double momentum = 0.0, energy = 0.0, mass = 0.0;
+    // Tip rotation: the angle of sum (r0 x r)_x, sum r0 . r over the tip face (x0 = L).
+    double cross = 0.0, dot = 0.0;
+    for (std::size_t i = 0; i < f.point_count; ++i) {
+      const double m = cell * lattice.volume_fraction(i);
+      momentum += m * (x[3 * i + 1] * v[3 * i + 2] - x[3 * i + 2] * v[3 * i + 1]);
+      energy += 0.5 * m * (v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
+      mass += m;
+      if (lattice.index[i][0] == lattice.nodes[0] - 1) {
+        cross += x0[3 * i + 1] * x[3 * i + 2] - x0[3 * i + 2] * x[3 * i + 1];
+        dot += x0[3 * i + 1] * x[3 * i + 1] + x0[3 * i + 2] * x[3 * i + 2];
+      }
+    }
+    if (t == 0.0) {
+      run.initial_energy = energy;
+      velocity_scale = std::sqrt(2.0 * energy / mass);
+    }
+    const double angle = std::atan2(cross, dot);
+    double step = angle - previous;
+    step -= 2.0 * M_PI * std::round(step / (2.0 * M_PI));
+    unwrapped += step;
+    previous = angle;
+    const auto u = hourglass_residual(lattice, frame_array(f, "displacement"));
+    const auto w = hourglass_residual(lattice, v);
+    run.frames.push_back({t, momentum, unwrapped, u[0] / dx, w[0] / velocity_scale});
+  };
+  try {
+    const RunReport report = run_case(c, options);
+    run.time_reached = report.time;
+    run.steps = report.steps;
+    run.wall_seconds = report.wall_seconds;
+  } catch (const RunDiverged& e) {
+    run.diverged = true;
+    run.message = e.what();
+    run.time_reached = run.energies.empty() ? 0.0 : run.energies.back().time;
+    run.steps = run.energies.empty() ? 0 : run.energies.back().step;
+  }
+  return run;
+}
+
+std::string alpha_label(double alpha) { return fmt::format("alpha {:.1f}", alpha); }
+
+/// The first maximum of the tip rotation (value, time), from the frames.
+std::pair<double, double> first_peak(const ColumnRun& r) {
+  for (std::size_t k = 1; k + 1 < r.frames.size(); ++k)
+    if (r.frames[k].tip_rotation >= r.frames[k - 1].tip_rotation && r.frames[k].tip_rotation > r.frames[k + 1].tip_rotation)
+      return {r.frames[k].tip_rotation, r.frames[k].t};
+  return {std::nan(""), std::nan("")};
+}
+
+Result twisting_column(const Options& o) {
+  const TwistingColumn column;
+  const double omega0 = 34.0;  // tools/cases/twisting_column.toml
+  const double period = column.torsional_period();
+  const double end_time = o.quick ? 1.0 * period : 4.0 * period;
+  const int frames_per_period = 40;
+  const std::vector<double> spacings = o.quick ? std::vector<double>{0.25} : std::vector<double>{1.0 / 6.0, 1.0 / 12.0};
+  Result result;
+  result.notes.push_back(fmt::format(
+      "omega0 = {} rad/s: peak speed {:.4g} m/s = {:.4f} c_p (c_p = {:.5g} m/s); linear torsional period {:.5g} s, "
+      "linear tip rotation amplitude {:.4g} rad",
+      omega0, column.peak_speed(omega0), column.peak_speed(omega0) / column.p_wave_speed(), column.p_wave_speed(),
+      period, column.linear_tip_rotation(omega0)));
+  std::vector<ColumnRun> runs;
+  for (double dx : spacings)
+    for (double alpha : {0.6, 1.2})
+      runs.push_back(run_column(o, alpha, dx, end_time,
+                                static_cast<int>(std::lround(end_time / period * frames_per_period)),
+                                fmt::format("dx{:.4f}_alpha{:.1f}", dx, alpha)));
+  for (const auto& r : runs) {
+    const std::string where = fmt::format("{}, dx = {:.4g}", alpha_label(r.alpha), r.dx);
+    {
+      Check c;
+      c.figure = fmt::format("time reached / end time {:.4g} s, {}", end_time, where);
+      c.value = r.time_reached / end_time;
+      c.reference = 1.0;
+      c.error = std::abs(c.value - 1.0);
+      c.tolerance = 1e-9;
+      c.error_kind = "abs";
+      c.pass = !r.diverged && c.error <= c.tolerance;
+      result.checks.push_back(c);
+    }
+    double gain = -std::numeric_limits<double>::infinity(), when = 0.0, onset = std::nan("");
+    for (const auto& e : r.energies) {
+      const double g = (e.kinetic_energy + e.strain_energy) / r.initial_energy - 1.0;
+      if (g > gain) gain = g, when = e.time;
+      if (g > 1e-3 && std::isnan(onset)) onset = e.time;
+    }
+    {
+      Check c;
+      c.figure = fmt::format("largest energy gain (E - E0) / E0, {}", where);
+      c.value = gain;
+      c.error = gain;
+      c.tolerance = 1e-3;
+      c.error_kind = "max";
+      c.pass = !r.diverged && gain <= c.tolerance;
+      result.checks.push_back(c);
+    }
+    double hourglass = 0.0;
+    for (const auto& f : r.frames) hourglass = std::max(hourglass, f.hourglass_u);
+    {
+      Check c;
+      c.figure = fmt::format("hourglass residual of u, RMS / dx, largest over the run, {}", where);
+      c.value = hourglass;
+      c.error = hourglass;
+      c.tolerance = 0.05;
+      c.error_kind = "max";
+      c.pass = !r.diverged && hourglass <= c.tolerance;
+      result.checks.push_back(c);
+    }
+    const auto [peak, peak_time] = first_peak(r);
+    const double final_energy =
+        r.energies.empty() ? std::nan("")
+                           : (r.energies.back().kinetic_energy + r.energies.back().strain_energy) / r.initial_energy;
+    result.notes.push_back(
+        (r.diverged ? fmt::format("{}: DIVERGED at step {} (t = {:.5g} s): {}", where, r.steps, r.time_reached, r.message)
+                    : fmt::format("{}: {} steps to t = {:.5g} s in {:.1f} s", where, r.steps, r.time_reached,
+                                  r.wall_seconds)) +
+        fmt::format("; E/E0 at the end {:.5f}, largest gain {:+.3e} at t = {:.4g} s, first above E0 (1 + 1e-3) at "
+                    "t = {:.4g} s; first tip rotation peak {:.4g} rad "
+                    "at t = {:.4g} s (linear: {:.4g} rad at {:.4g} s); angular momentum about the axis {:.5g} -> {:.5g} "
+                    "kg m^2/s; hourglass u RMS/dx largest {:.3e}",
+                    final_energy, gain, when, onset, peak, peak_time, column.linear_tip_rotation(omega0), period / 4.0,
+                    r.frames.empty() ? std::nan("") : r.frames.front().angular_momentum,
+                    r.frames.empty() ? std::nan("") : r.frames.back().angular_momentum, hourglass));
+  }
+  if (runs.size() == 4) {
+    // The tip rotation's first peak between dx = 1/6 and 1/12, per alpha.
+    for (int a = 0; a < 2; ++a) {
+      const auto coarse = first_peak(runs[a]), fine = first_peak(runs[2 + a]);
+      result.notes.push_back(fmt::format("{}: first tip rotation peak {:.5g} rad (dx 1/6) vs {:.5g} rad (dx 1/12): "
+                                         "{:+.2f} %",
+                                         alpha_label(runs[a].alpha), coarse.first, fine.first,
+                                         100.0 * (coarse.first / fine.first - 1.0)));
+    }
+  }
+  // Series: one CSV per quantity, a column per run.
+  auto series = [&](const std::string& name, const std::string& title, const std::string& label, auto value,
+                    const std::string& reference_name, auto reference) {
+    Series s;
+    s.name = name;
+    s.title = title;
+    s.x_label = "t (s)";
+    s.y_label = label;
+    s.columns = {"t"};
+    for (const auto& r : runs) s.columns.push_back(fmt::format("{}, dx {:.4g}", alpha_label(r.alpha), r.dx));
+    if (!reference_name.empty()) s.columns.push_back("ref " + reference_name);
+    std::size_t rows = 0;
+    const ColumnRun* longest = &runs.front();
+    for (const auto& r : runs)
+      if (r.frames.size() > rows) rows = r.frames.size(), longest = &r;
+    for (std::size_t k = 0; k < rows; ++k) {
+      const double t = longest->frames[k].t;
+      std::vector<double> row = {t};
+      for (const auto& r : runs) row.push_back(k < r.frames.size() ? value(r.frames[k]) : std::nan(""));
+      if (!reference_name.empty()) row.push_back(reference(t));
+      s.rows.push_back(std::move(row));
+    }
+    result.series.push_back(std::move(s));
+  };
+  const double omega_t = column.torsional_omega(), amplitude = column.linear_tip_rotation(omega0);
+  series("tip_rotation", "Twisting column: tip rotation about the axis", "rotation (rad)",
+         [](const ColumnRun::Frame& f) { return f.tip_rotation; }, "linear mode sin(omega_t t) omega0 / omega_t",
+         [&](double t) { return amplitude * std::sin(omega_t * t); });
+  series("angular_momentum", "Twisting column: angular momentum about the axis", "L_x (kg m^2/s)",
+         [](const ColumnRun::Frame& f) { return f.angular_momentum; }, "", [](double) { return 0.0; });
+  series("hourglass", "Twisting column: hourglass residual of u (RMS / dx)", "RMS / dx",
+         [](const ColumnRun::Frame& f) { return f.hourglass_u; }, "", [](double) { return 0.0; });
+  {  // energies, sampled at the frames' times
+    Series s;
+    s.name = "energy";
+    s.title = "Twisting column: total energy / initial";
+    s.x_label = "t (s)";
+    s.y_label = "E / E0";
+    s.columns = {"t"};
+    for (const auto& r : runs) s.columns.push_back(fmt::format("{}, dx {:.4g}", alpha_label(r.alpha), r.dx));
+    s.columns.push_back("ref E/E0 = 1");
+    for (double t = 0.0; t <= end_time + 1e-12; t += period / 40.0) {
+      std::vector<double> row = {t};
+      for (const auto& r : runs) {
+        double value = std::nan("");
+        if (t == 0.0) value = 1.0;
+        else if (!r.energies.empty() && t <= r.time_reached + 1e-12) {
+          const auto it = std::lower_bound(r.energies.begin(), r.energies.end(), t,
+                                           [](const auto& e, double x) { return e.time < x; });
+          const auto& e = it == r.energies.end() ? r.energies.back() : *it;
+          value = (e.kinetic_energy + e.strain_energy) / r.initial_energy;
+        }
+        row.push_back(value);
+      }
+      row.push_back(1.0);
+      s.rows.push_back(std::move(row));
+    }
+    result.series.push_back(std::move(s));
+  }
+  return result;
+}
+
+}  // namespace
+
+std::vector<Case> column_cases() {
+  return {{"twisting_column",
+           "twisting column 6 x 1 x 1 (3D, UL), omega0 = 34 rad/s, alpha 0.6 and 1.2: stability, energy, "
+           "angular momentum, tip rotation",
+           true, twisting_column}};
+}
+
+}  // namespace tsph::validate
