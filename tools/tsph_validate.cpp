@@ -53,7 +53,8 @@ using validate::Result;
 /// Every registered case, group by group: the one list to extend.
 std::vector<Case> registered_cases() {
   std::vector<Case> all;
-  for (auto group : {validate::homogeneous_cases, validate::rotation_cases}) {
+  for (auto group : {validate::homogeneous_cases, validate::rotation_cases, validate::plate_cases,
+                     validate::column_cases}) {
     auto cases = group();
     all.insert(all.end(), cases.begin(), cases.end());
   }
@@ -234,12 +235,20 @@ int run_validate(const ValidateOptions& o) {
   }
   fmt::print("{} checks passed, {} failed; table.md, validate.json and the series in {}\n", passed, failed, o.out);
 
-  // The plots: optional (python3 with matplotlib).
+  // The plots: optional (python3 with matplotlib). The python3 on PATH first, then the
+  // system's, where tools/setup.sh installs matplotlib (a pyenv or venv python3 on PATH
+  // usually lacks it).
   const std::string script = std::string(TSPH_TOOLS_DIR) + "/plot_validation.py";
-  if (std::system("python3 -c 'import matplotlib' >/dev/null 2>&1") != 0) {
-    fmt::print(stderr, "tsph: validate: no plots: python3 with matplotlib is missing (pip install matplotlib, then "
-                       "python3 {} {})\n", script, o.out);
-  } else if (std::system(fmt::format("python3 '{}' '{}'", script, o.out).c_str()) != 0) {
+  std::string python;
+  for (const char* candidate : {"python3", "/usr/bin/python3"})
+    if (std::system(fmt::format("{} -c 'import matplotlib' >/dev/null 2>&1", candidate).c_str()) == 0) {
+      python = candidate;
+      break;
+    }
+  if (python.empty()) {
+    fmt::print(stderr, "tsph: validate: no plots: python3 with matplotlib is missing (tools/setup.sh installs "
+                       "python3-matplotlib; then python3 {} {})\n", script, o.out);
+  } else if (std::system(fmt::format("{} '{}' '{}'", python, script, o.out).c_str()) != 0) {
     fmt::print(stderr, "tsph: validate: {} failed; the table and the CSV series are written\n", script);
   }
   return failed == 0 ? kExitOk : kExitValidationFailed;
