@@ -204,7 +204,8 @@ class StabilityMonitor {
 
  private:
   /// "solver: the solution diverged at step n (t = ...): <set> particle <id> at (x, y)
-  /// <what>; likely cause: ..." The cause, in order: a time step above the stability
+  /// <what>; likely cause: ..." The cause: `known_cause` if given (physical_cause), else in
+  /// order: a time step above the stability
   /// limit (CFL = dt c_p / dx > 1, c_p at the material's reference density, dx from the
   /// virtual particles' initial volumes), a boundary
   /// condition (the particle is on a boundary or within the support 2h of one), else
