@@ -20,9 +20,9 @@
 namespace tsph {
 
 /// The run blew up: NaN/Inf in either particle set, an unphysical state, or a runaway
-/// of the energy. The
-/// message names the step, the time, the first offending particle (id, position) and
-/// the likely cause; the command-line programs exit with status 3 on it.
+/// of the energy. The message names the step, the time, the first offending particle
+/// (id, position), the criterion with its value and bound, and the likely cause; the
+/// command-line programs exit with status 3 on it.
 class SolutionDiverged : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -133,10 +133,9 @@ class StabilityMonitor {
           result.kinetic += 0.5 * set.mass[i] * v2;
           const StressVector<Dim> sigma = state.stress_of(set, i);
           result.strain += set.volume[i] * model.strain_energy_density(sigma);
-          if (const double s2 = stress_norm_squared(sigma); s2 > result.stress_max)
-            result.stress_max = s2, result.most_stressed = i;
-          if (set.density[i] > result.density_max) result.density_max = set.density[i], result.densest = i;
-          if (set.density[i] < result.density_min) result.density_min = set.density[i], result.rarest = i;
+          result.stress_max = std::max(result.stress_max, stress_norm_squared(sigma));
+          result.density_max = std::max(result.density_max, set.density[i]);
+          result.density_min = std::min(result.density_min, set.density[i]);
         }
       stability_blocks_[block] = result;
     });
@@ -254,11 +253,12 @@ class StabilityMonitor {
   /// of stability_blocks_), in this order: density, stress, speed, a particle that left
   /// the body. Throws SolutionDiverged naming the particle, the criterion, its value and
   /// its bound.
-  void check_physical_bounds(const SolverState<Dim>& state, std::int64_t step, double dt, std::size_t real_blocks) {
+  void check_physical_bounds(const SolverState<Dim>& state, std::int64_t step, double dt,
+                             std::size_t real_blocks) {
     const double rho0 = state.material.reference_density();
     const double c_p = state.material.p_wave_speed(rho0);
     const double modulus = rho0 * c_p * c_p;  // M, the p-wave modulus
-    StabilityBlock all;  // the real set's reductions, in block order
+    StabilityBlock all;                       // the real set's reductions, in block order
     for (std::size_t block = 0; block < real_blocks; ++block) {
       const StabilityBlock& b = stability_blocks_[block];
       all.mass += b.mass;
@@ -267,31 +267,43 @@ class StabilityMonitor {
         all.velocity_min[d] = std::min(all.velocity_min[d], b.velocity_min[d]);
         all.velocity_max[d] = std::max(all.velocity_max[d], b.velocity_max[d]);
       }
-      if (b.density_max > all.density_max) all.density_max = b.density_max, all.densest = b.densest;
-      if (b.density_min < all.density_min) all.density_min = b.density_min, all.rarest = b.rarest;
-      if (b.stress_max > all.stress_max) all.stress_max = b.stress_max, all.most_stressed = b.most_stressed;
+      all.density_max = std::max(all.density_max, b.density_max);
+      all.density_min = std::min(all.density_min, b.density_min);
+      all.stress_max = std::max(all.stress_max, b.stress_max);
     }
     const ParticleSet<Dim>& real = state.real;
     auto stop = [&](std::size_t i, const std::string& what) {
       throw SolutionDiverged(diagnosis(state, step, dt, real, i, what, physical_cause(step)));
     };
+    // The pass keeps the extremes only (no index: its loop stays branch-free); the
+    // particle that holds one is searched for when a bound is crossed.
+    auto first_with = [&](auto&& value, double extreme) {
+      for (std::size_t i = 0; i < real.size(); ++i)
+        if (value(i) == extreme) return i;
+      return std::size_t{0};
+    };
+    auto density_of = [&](std::size_t i) { return real.density[i]; };
+    auto stress_of = [&](std::size_t i) { return stress_norm_squared(state.stress_of(real, i)); };
     if (all.density_max > kMaxDensityRatio * rho0)
-      stop(all.densest, "has an unphysical density: rho / rho0 = " + format_number(all.density_max / rho0) +
-                            " (J = rho0 / rho = " + format_number(rho0 / all.density_max) + ") is above the bound " +
-                            format_number(kMaxDensityRatio) + " (rho0 = " + format_number(rho0) +
-                            " kg/m^3): compressed to less than 1/" + format_number(kMaxDensityRatio) +
-                            " of its volume");
+      stop(first_with(density_of, all.density_max),
+           "has an unphysical density: rho / rho0 = " + format_number(all.density_max / rho0) +
+               " (J = rho0 / rho = " + format_number(rho0 / all.density_max) +
+               ") is above the bound " + format_number(kMaxDensityRatio) +
+               " (rho0 = " + format_number(rho0) + " kg/m^3): compressed to less than 1/" +
+               format_number(kMaxDensityRatio) + " of its volume");
     if (all.density_min < kMinDensityRatio * rho0)
-      stop(all.rarest, "has an unphysical density: rho / rho0 = " + format_number(all.density_min / rho0) +
-                           " (J = rho0 / rho = " + format_number(rho0 / all.density_min) + ") is below the bound " +
-                           format_number(kMinDensityRatio) + " (rho0 = " + format_number(rho0) +
-                           " kg/m^3): expanded to more than " + format_number(1.0 / kMinDensityRatio) +
-                           " times its volume");
+      stop(first_with(density_of, all.density_min),
+           "has an unphysical density: rho / rho0 = " + format_number(all.density_min / rho0) +
+               " (J = rho0 / rho = " + format_number(rho0 / all.density_min) +
+               ") is below the bound " + format_number(kMinDensityRatio) +
+               " (rho0 = " + format_number(rho0) + " kg/m^3): expanded to more than " +
+               format_number(1.0 / kMinDensityRatio) + " times its volume");
     if (all.stress_max > kMaxStressOverModulus * kMaxStressOverModulus * modulus * modulus)
-      stop(all.most_stressed, "has an unphysical stress: |sigma| = " + format_number(std::sqrt(all.stress_max)) +
-                                  " Pa is above the bound " + format_number(kMaxStressOverModulus) +
-                                  " M = " + format_number(kMaxStressOverModulus * modulus) +
-                                  " Pa (M = rho0 c_p^2, the p-wave modulus)");
+      stop(first_with(stress_of, all.stress_max),
+           "has an unphysical stress: |sigma| = " + format_number(std::sqrt(all.stress_max)) +
+               " Pa is above the bound " + format_number(kMaxStressOverModulus) +
+               " M = " + format_number(kMaxStressOverModulus * modulus) +
+               " Pa (M = rho0 c_p^2, the p-wave modulus)");
     // Speed relative to the mean velocity: the component extremes bound it (no second
     // pass unless the bound is above the limit; then the exact largest one).
     Vec mean = Vec::Zero();
@@ -306,14 +318,16 @@ class StabilityMonitor {
       std::size_t fastest = 0;
       double fastest2 = -1.0;
       for (std::size_t i = 0; i < real.size(); ++i)
-        if (const double r2 = (state.velocity_of(i) - mean).squaredNorm(); r2 > fastest2) fastest2 = r2, fastest = i;
+        if (const double r2 = (state.velocity_of(i) - mean).squaredNorm(); r2 > fastest2)
+          fastest2 = r2, fastest = i;
       if (fastest2 > speed_limit * speed_limit) {
         std::string v_mean = "(";
         for (int d = 0; d < Dim; ++d) v_mean += (d ? ", " : "") + format_number(mean[d]);
-        stop(fastest, "moves at an unphysical speed: |v - v_mean| = " + format_number(std::sqrt(fastest2)) +
-                          " m/s relative to the mean velocity " + v_mean + ") m/s is above the bound " +
-                          format_number(kMaxSpeedOverWaveSpeed) + " c_p = " + format_number(speed_limit) +
-                          " m/s (the p-wave speed at rho0)");
+        stop(fastest,
+             "moves at an unphysical speed: |v - v_mean| = " + format_number(std::sqrt(fastest2)) +
+                 " m/s relative to the mean velocity " + v_mean + ") m/s is above the bound " +
+                 format_number(kMaxSpeedOverWaveSpeed) + " c_p = " + format_number(speed_limit) +
+                 " m/s (the p-wave speed at rho0)");
       }
     }
     // A real particle with no virtual particle within its support 2h has left the body
@@ -333,7 +347,8 @@ class StabilityMonitor {
               break;
             }
           if (alone)
-            stop(i, "has no virtual particle within its support 2h = " + format_number(state.support_radius()) +
+            stop(i, "has no virtual particle within its support 2h = " +
+                        format_number(state.support_radius()) +
                         " m (particle disorder: it has left the body)");
         }
     }
@@ -375,7 +390,6 @@ class StabilityMonitor {
     double density_max = -std::numeric_limits<double>::infinity();
     double density_min = std::numeric_limits<double>::infinity();
     double stress_max = -1.0;  ///< the largest sigma : sigma
-    std::size_t densest = kNoParticle, rarest = kNoParticle, most_stressed = kNoParticle;
   };
   static std::array<double, Dim> filled(double value) {
     std::array<double, Dim> a;
