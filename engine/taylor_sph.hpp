@@ -78,7 +78,8 @@ class TaylorSph {
       if (settings.hourglass_coefficient > 0.0) surface_filter_.apply(state_, kernel);
     });
   }
-  /// NaN/Inf in either set or a runaway of the energy: throws SolutionDiverged.
+  /// NaN/Inf in either set, an unphysical state (density, stress, speed, a particle
+  /// that left the body) or a runaway of the energy: throws SolutionDiverged.
   void check_stability(double dt) { monitor_.check(state_, dt); }
   /// Displacements, and in updated Lagrangian the positions and the neighbour lists.
   void advance_positions(double dt) { Motion<Dim>::second_half(state_, dt); }

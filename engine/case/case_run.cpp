@@ -438,7 +438,8 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
         message = e.what();
         report.time = solver->time();
         report.steps = step_count();
-        writer.finish();
+        writer.finish();  // the frames of the steps before: each passed the monitor
+        flush_probes(probes, out, /*close=*/true);  // their rows too (the step that failed wrote none)
         write_summary(out, c, o, report, b, "diverged", message);
         throw RunDiverged(message);
       }

@@ -1,6 +1,7 @@
 // The stability monitor: after the fields of a step are advanced and before any
-// particle moves, NaN/Inf in either set or a runaway of the total energy stops the run
-// with a diagnosis (SolutionDiverged).
+// particle moves, NaN/Inf in either set, an unphysical state of a real particle
+// (density, stress, speed against the p-wave speed, a particle that left the body) or a
+// runaway of the total energy stops the run with a diagnosis (SolutionDiverged).
 #pragma once
 
 #include "engine/input_error.hpp"
@@ -11,15 +12,17 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace tsph {
 
-/// The run blew up: NaN/Inf in either particle set or a runaway of the energy. The
-/// message names the step, the time, the first offending particle (id, position) and
-/// the likely cause; the command-line programs exit with status 3 on it.
+/// The run blew up: NaN/Inf in either particle set, an unphysical state, or a runaway
+/// of the energy. The message names the step, the time, the first offending particle
+/// (id, position), the criterion with its value and bound, and the likely cause; the
+/// command-line programs exit with status 3 on it.
 class SolutionDiverged : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -51,28 +54,56 @@ inline constexpr double kRunawayJumpFactor = 30.0;
 inline constexpr int kRunawayJumpSteps = 10;
 inline constexpr std::int64_t kRunawayJumpAfter = 1000;
 
+/// Physical bounds (issue 14, item 4; docs/reliability.md, "Unphysical state"): each is
+/// a state that no solid modelled here reaches, so that a blow-up is stopped at its
+/// start, before any frame, probe or checkpoint holds it, while legitimate large
+/// deformation (J down to 0.5, stretch to 1.5, shear to gamma = 5, rotations of any
+/// angle) passes with a margin of 2.5 or more.
+///
+/// Density: rho / rho0 above kMaxDensityRatio (the Jacobian J = rho0 / rho below 0.2,
+/// compression to a fifth of the volume) or below kMinDensityRatio (J above 5).
+inline constexpr double kMaxDensityRatio = 5.0;
+inline constexpr double kMinDensityRatio = 0.2;
+/// Stress: the Frobenius norm |sigma| = sqrt(sigma : sigma) above kMaxStressOverModulus
+/// times the p-wave modulus M = rho0 c_p^2 (the stiffest elastic modulus). Uniaxial strain
+/// to J = 0.2 in a linear hypoelastic solid gives |sigma| = 1.8 M (nu = 0.3), simple shear
+/// at most G sqrt(2) < M.
+inline constexpr double kMaxStressOverModulus = 5.0;
+/// Speed: a real particle moving faster than kMaxSpeedOverWaveSpeed times the p-wave
+/// speed c_p (at rho0) relative to the mass-weighted mean velocity of the real set (so a
+/// translation at any speed passes). A velocity difference V across a solid carries a
+/// stress of order rho c_p V: V = c_p is a strain of order 1 at every wave passage.
+inline constexpr double kMaxSpeedOverWaveSpeed = 1.0;
+
 template <int Dim>
 class StabilityMonitor {
  public:
   using Vec = Vector<Dim>;
   static constexpr int stress_count = stress_component_count<Dim>;
 
-  /// NaN/Inf in the velocity or stress of either set, or a runaway of the energy
-  /// (kRunawayGrowths, kRunawayWindows, kRunawayJumpFactor): throws SolutionDiverged
-  /// with the diagnosis.
+  /// NaN/Inf in the velocity, stress or density of either set (and the positions of the
+  /// real one), an unphysical real particle (kMaxDensityRatio, kMinDensityRatio,
+  /// kMaxStressOverModulus, kMaxSpeedOverWaveSpeed, no virtual neighbour in its support),
+  /// or a runaway of the energy (kRunawayGrowths, kRunawayWindows, kRunawayJumpFactor):
+  /// throws SolutionDiverged with the diagnosis.
   void check(const SolverState<Dim>& state, double dt) {
     const std::int64_t step = state.counters.steps + 1;
-    auto non_finite = [](const ParticleSet<Dim>& set, std::size_t i) -> const char* {
+    auto non_finite = [](const ParticleSet<Dim>& set, std::size_t i, bool is_real) -> const char* {
       for (int d = 0; d < Dim; ++d)
         if (!std::isfinite(set.velocity[d][i])) return "velocity";
       for (int m = 0; m < stress_count; ++m)
         if (!std::isfinite(set.stress[m][i])) return "stress";
+      if (!std::isfinite(set.density[i])) return "density";
+      if (is_real)
+        for (int d = 0; d < Dim; ++d)
+          if (!std::isfinite(set.position[d][i])) return "position";
       return nullptr;
     };
     // One parallel pass over fixed blocks of particles (kStabilityBlock, not one per
-    // thread: the energy's sum order, hence its round-off, does not depend on the thread
-    // count): the first non-finite particle of each block and the block's energies,
-    // combined in block order. Was two serial passes (3 % of a 2D step, serial).
+    // thread: the sums' order, hence their round-off, does not depend on the thread
+    // count): the first non-finite particle of each block and, for the real blocks, the
+    // energies, the momentum, the extremes of density, stress and each velocity
+    // component, combined in block order. Was two serial passes (3 % of a 2D step, serial).
     const std::size_t real_blocks = (state.real.size() + kStabilityBlock - 1) / kStabilityBlock;
     const std::size_t virtual_blocks = (state.virtual_.size() + kStabilityBlock - 1) / kStabilityBlock;
     stability_blocks_.resize(real_blocks + virtual_blocks);
@@ -84,16 +115,27 @@ class StabilityMonitor {
       const std::size_t end = std::min(set.size(), begin + kStabilityBlock);
       StabilityBlock result;
       for (std::size_t i = begin; i < end; ++i)
-        if (non_finite(set, i) != nullptr) {
+        if (non_finite(set, i, is_real) != nullptr) {
           result.first_non_finite = i;
           break;
         }
       if (is_real)
         for (std::size_t i = begin; i < end; ++i) {
           double v2 = 0.0;
-          for (int d = 0; d < Dim; ++d) v2 += set.velocity[d][i] * set.velocity[d][i];
+          for (int d = 0; d < Dim; ++d) {
+            const double v = set.velocity[d][i];
+            v2 += v * v;
+            result.momentum[d] += set.mass[i] * v;
+            result.velocity_min[d] = std::min(result.velocity_min[d], v);
+            result.velocity_max[d] = std::max(result.velocity_max[d], v);
+          }
+          result.mass += set.mass[i];
           result.kinetic += 0.5 * set.mass[i] * v2;
-          result.strain += set.volume[i] * model.strain_energy_density(state.stress_of(set, i));
+          const StressVector<Dim> sigma = state.stress_of(set, i);
+          result.strain += set.volume[i] * model.strain_energy_density(sigma);
+          result.stress_max = std::max(result.stress_max, stress_norm_squared(sigma));
+          result.density_max = std::max(result.density_max, set.density[i]);
+          result.density_min = std::min(result.density_min, set.density[i]);
         }
       stability_blocks_[block] = result;
     });
@@ -101,8 +143,10 @@ class StabilityMonitor {
     for (std::size_t block = 0; block < real_blocks + virtual_blocks; ++block)
       if (const std::size_t i = stability_blocks_[block].first_non_finite; i != kNoParticle) {
         const ParticleSet<Dim>& set = block < real_blocks ? state.real : state.virtual_;
-        throw SolutionDiverged(diagnosis(state, step, dt, set, i, std::string("has a non-finite ") + non_finite(set, i)));
+        throw SolutionDiverged(diagnosis(state, step, dt, set, i,
+                                         std::string("has a non-finite ") + non_finite(set, i, block < real_blocks)));
       }
+    check_physical_bounds(state, step, dt, real_blocks);
     double kinetic = 0.0, strain = 0.0;
     for (std::size_t block = 0; block < real_blocks; ++block) {
       kinetic += stability_blocks_[block].kinetic;
@@ -159,13 +203,14 @@ class StabilityMonitor {
 
  private:
   /// "solver: the solution diverged at step n (t = ...): <set> particle <id> at (x, y)
-  /// <what>; likely cause: ..." The cause, in order: a time step above the stability
+  /// <what>; likely cause: ..." The cause: `known_cause` if given (physical_cause), else in
+  /// order: a time step above the stability
   /// limit (CFL = dt c_p / dx > 1, c_p at the material's reference density, dx from the
   /// virtual particles' initial volumes), a boundary
   /// condition (the particle is on a boundary or within the support 2h of one), else
   /// alpha = h / dx or the kinematics.
   static std::string diagnosis(const SolverState<Dim>& state, std::int64_t step, double dt, const ParticleSet<Dim>& set, std::size_t i,
-                               const std::string& what) {
+                               const std::string& what, const std::string& known_cause = "") {
     const bool is_real = &set == &state.real;
     const Vec x = set.position_of(i);
     std::string where = "(";
@@ -173,8 +218,10 @@ class StabilityMonitor {
     where += ")";
     const double dx = state.initial_spacing;
     const double cfl = dt * state.material.p_wave_speed(state.material.reference_density()) / dx;
-    std::string cause;
-    if (cfl > 1.0 + 1e-9) {
+    std::string cause = known_cause;
+    if (!known_cause.empty()) {
+      // given by the criterion (physical_cause)
+    } else if (cfl > 1.0 + 1e-9) {
       cause = "the time step: CFL = dt c_p / dx = " + format_number(cfl) +
               " is above the scheme's stability limit 1; lower cfl";
     } else {
@@ -192,6 +239,128 @@ class StabilityMonitor {
            format_number(state.time + dt) + " s): " + (is_real ? "real" : "virtual") + " particle " +
            std::to_string(set.carries(set.id) ? set.id[i] : i) + " at " + where + " " + what +
            "; likely cause: " + cause;
+  }
+
+  /// sigma : sigma, the square of the Frobenius norm of the stress tensor (the shear
+  /// components twice; 2D: xx, yy, xy, zz; 3D: xx, yy, zz, xy, yz, zx).
+  static double stress_norm_squared(const StressVector<Dim>& s) {
+    if constexpr (Dim == 1) return s[0] * s[0];
+    else if constexpr (Dim == 2) return s[0] * s[0] + s[1] * s[1] + 2.0 * s[2] * s[2] + s[3] * s[3];
+    else return s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + 2.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]);
+  }
+
+  /// The unphysical states, from the reductions of check's pass (the first `real_blocks`
+  /// of stability_blocks_), in this order: density, stress, speed, a particle that left
+  /// the body. Throws SolutionDiverged naming the particle, the criterion, its value and
+  /// its bound.
+  void check_physical_bounds(const SolverState<Dim>& state, std::int64_t step, double dt,
+                             std::size_t real_blocks) {
+    const double rho0 = state.material.reference_density();
+    const double c_p = state.material.p_wave_speed(rho0);
+    const double modulus = rho0 * c_p * c_p;  // M, the p-wave modulus
+    StabilityBlock all;                       // the real set's reductions, in block order
+    for (std::size_t block = 0; block < real_blocks; ++block) {
+      const StabilityBlock& b = stability_blocks_[block];
+      all.mass += b.mass;
+      for (int d = 0; d < Dim; ++d) {
+        all.momentum[d] += b.momentum[d];
+        all.velocity_min[d] = std::min(all.velocity_min[d], b.velocity_min[d]);
+        all.velocity_max[d] = std::max(all.velocity_max[d], b.velocity_max[d]);
+      }
+      all.density_max = std::max(all.density_max, b.density_max);
+      all.density_min = std::min(all.density_min, b.density_min);
+      all.stress_max = std::max(all.stress_max, b.stress_max);
+    }
+    const ParticleSet<Dim>& real = state.real;
+    auto stop = [&](std::size_t i, const std::string& what) {
+      throw SolutionDiverged(diagnosis(state, step, dt, real, i, what, physical_cause(step)));
+    };
+    // The pass keeps the extremes only (no index: its loop stays branch-free); the
+    // particle that holds one is searched for when a bound is crossed.
+    auto first_with = [&](auto&& value, double extreme) {
+      for (std::size_t i = 0; i < real.size(); ++i)
+        if (value(i) == extreme) return i;
+      return std::size_t{0};
+    };
+    auto density_of = [&](std::size_t i) { return real.density[i]; };
+    auto stress_of = [&](std::size_t i) { return stress_norm_squared(state.stress_of(real, i)); };
+    if (all.density_max > kMaxDensityRatio * rho0)
+      stop(first_with(density_of, all.density_max),
+           "has an unphysical density: rho / rho0 = " + format_number(all.density_max / rho0) +
+               " (J = rho0 / rho = " + format_number(rho0 / all.density_max) +
+               ") is above the bound " + format_number(kMaxDensityRatio) +
+               " (rho0 = " + format_number(rho0) + " kg/m^3): compressed to less than 1/" +
+               format_number(kMaxDensityRatio) + " of its volume");
+    if (all.density_min < kMinDensityRatio * rho0)
+      stop(first_with(density_of, all.density_min),
+           "has an unphysical density: rho / rho0 = " + format_number(all.density_min / rho0) +
+               " (J = rho0 / rho = " + format_number(rho0 / all.density_min) +
+               ") is below the bound " + format_number(kMinDensityRatio) +
+               " (rho0 = " + format_number(rho0) + " kg/m^3): expanded to more than " +
+               format_number(1.0 / kMinDensityRatio) + " times its volume");
+    if (all.stress_max > kMaxStressOverModulus * kMaxStressOverModulus * modulus * modulus)
+      stop(first_with(stress_of, all.stress_max),
+           "has an unphysical stress: |sigma| = " + format_number(std::sqrt(all.stress_max)) +
+               " Pa is above the bound " + format_number(kMaxStressOverModulus) +
+               " M = " + format_number(kMaxStressOverModulus * modulus) +
+               " Pa (M = rho0 c_p^2, the p-wave modulus)");
+    // Speed relative to the mean velocity: the component extremes bound it (no second
+    // pass unless the bound is above the limit; then the exact largest one).
+    Vec mean = Vec::Zero();
+    for (int d = 0; d < Dim; ++d) mean[d] = all.mass > 0.0 ? all.momentum[d] / all.mass : 0.0;
+    double bound2 = 0.0;
+    for (int d = 0; d < Dim; ++d) {
+      const double spread = std::max(all.velocity_max[d] - mean[d], mean[d] - all.velocity_min[d]);
+      bound2 += spread * spread;
+    }
+    const double speed_limit = kMaxSpeedOverWaveSpeed * c_p;
+    if (bound2 > speed_limit * speed_limit) {
+      std::size_t fastest = 0;
+      double fastest2 = -1.0;
+      for (std::size_t i = 0; i < real.size(); ++i)
+        if (const double r2 = (state.velocity_of(i) - mean).squaredNorm(); r2 > fastest2)
+          fastest2 = r2, fastest = i;
+      if (fastest2 > speed_limit * speed_limit) {
+        std::string v_mean = "(";
+        for (int d = 0; d < Dim; ++d) v_mean += (d ? ", " : "") + format_number(mean[d]);
+        stop(fastest,
+             "moves at an unphysical speed: |v - v_mean| = " + format_number(std::sqrt(fastest2)) +
+                 " m/s relative to the mean velocity " + v_mean + ") m/s is above the bound " +
+                 format_number(kMaxSpeedOverWaveSpeed) + " c_p = " + format_number(speed_limit) +
+                 " m/s (the p-wave speed at rho0)");
+      }
+    }
+    // A real particle with no virtual particle within its support 2h has left the body
+    // (its full step found an empty stencil, counted in SolverCounters::empty_stencils):
+    // the rows are searched only in a step whose count rose.
+    if (state.counters.empty_stencils > empty_stencils_) {
+      const NeighborList& rows = state.lists.real_from_virtual;
+      const PointsView<Dim> real_points = points_of<Dim>(state.real);
+      const PointsView<Dim> virtual_points = points_of<Dim>(state.virtual_);
+      const double radius2 = state.support_radius() * state.support_radius();
+      if (rows.query_count() == real.size())
+        for (std::size_t i = 0; i < real.size(); ++i) {
+          bool alone = true;
+          for (std::uint32_t q : rows.neighbors(i))
+            if (squared_distance<Dim>(real_points, i, virtual_points, q) < radius2) {
+              alone = false;
+              break;
+            }
+          if (alone)
+            stop(i, "has no virtual particle within its support 2h = " +
+                        format_number(state.support_radius()) +
+                        " m (particle disorder: it has left the body)");
+        }
+    }
+    empty_stencils_ = state.counters.empty_stencils;
+  }
+
+  /// The likely cause of an unphysical state: in the first step, the case's initial
+  /// state or loads; else as for any divergence (diagnosis).
+  static std::string physical_cause(std::int64_t step) {
+    if (step > 1) return "";
+    return "the initial state or the loads (initial.velocity, initial.velocity_gradient, initial.stress, the "
+           "boundary values): an elastic solid cannot take them; lower them";
   }
 
   /// The boundary condition a particle is on (`own`), else that of the nearest boundary
@@ -214,8 +383,21 @@ class StabilityMonitor {
   struct StabilityBlock {
     std::size_t first_non_finite = kNoParticle;
     double kinetic = 0.0, strain = 0.0;
+    double mass = 0.0;
+    std::array<double, Dim> momentum{};
+    std::array<double, Dim> velocity_min = filled(std::numeric_limits<double>::infinity());
+    std::array<double, Dim> velocity_max = filled(-std::numeric_limits<double>::infinity());
+    double density_max = -std::numeric_limits<double>::infinity();
+    double density_min = std::numeric_limits<double>::infinity();
+    double stress_max = -1.0;  ///< the largest sigma : sigma
   };
+  static std::array<double, Dim> filled(double value) {
+    std::array<double, Dim> a;
+    a.fill(value);
+    return a;
+  }
   std::vector<StabilityBlock> stability_blocks_;
+  std::int64_t empty_stencils_ = 0;  ///< SolverCounters::empty_stencils at the last check
   double previous_energy_ = 0.0;   ///< total energy after the last step (check)
   std::array<int, kRunawayGrowths.size()> energy_growth_steps_{};  ///< consecutive, per growth
   std::vector<double> largest_energy_;  ///< largest energy so far, after each recent step
