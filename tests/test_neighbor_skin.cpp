@@ -208,7 +208,10 @@ void check_identical_runs(std::int64_t nodes, int steps, bool conservative) {
   // rows are the search at x^n, so a real particle that the shift brings within 2h is
   // missing (a weight of the kernel's tail, (2 - q)^3); with skin it is in the row.
   // Measured 1.2e-9 (both runs are consistent to that order; the skin run is the exact one).
-  const double tolerance = conservative ? 1e-8 : kRoundOff;
+  // Since the real particles move with the interpolated half-step velocity
+  // (SolverSettings::material_velocity_motion, 2026-11-25) the positions read that
+  // difference too: measured 1.5e-7 (stress), 1.4e-7 (velocity), 1.0e-7 (displacement).
+  const double tolerance = conservative ? 1e-6 : kRoundOff;
   for (double skin : {0.05, 0.1}) {
     const auto one_thread = run(skin, 1, &kept);
     const std::string what = "skin " + std::to_string(skin);

@@ -53,8 +53,8 @@ using validate::Result;
 /// Every registered case, group by group: the one list to extend.
 std::vector<Case> registered_cases() {
   std::vector<Case> all;
-  for (auto group : {validate::homogeneous_cases, validate::rotation_cases, validate::plate_cases,
-                     validate::column_cases}) {
+  for (auto group : {validate::homogeneous_cases, validate::rotation_cases, validate::cantilever_cases,
+                     validate::plate_cases, validate::column_cases}) {
     auto cases = group();
     all.insert(all.end(), cases.begin(), cases.end());
   }

@@ -111,6 +111,7 @@ struct CaseFile {
   enum class VelocityWall { characteristics, wall_gradient };
   VelocityWall velocity_wall = VelocityWall::characteristics;
   bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
+  bool material_velocity_motion = true;  ///< SolverSettings::material_velocity_motion
   bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D only)
   std::vector<double> body_force;
 

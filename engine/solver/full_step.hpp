@@ -11,6 +11,7 @@
 #include "engine/solver/stencil_evaluation.hpp"
 
 #include <cstdint>
+#include <limits>
 
 namespace tsph {
 
@@ -33,6 +34,9 @@ struct FullStep {
     const double h = state.settings.smoothing_length;
     const bool objective = state.objective_rates(), compressible = state.density_follows();
     NeighborLists<Dim>::prepare_full_step(state);  // without skin in updated Lagrangian: searched now
+    const bool material_motion = state.moves_with_material_velocity();
+    if (material_motion)
+      for (auto& component : state.next_position) component.assign(target.count, std::numeric_limits<double>::quiet_NaN());
     state.add(parallel_for_with_scratch<StepScratch, StencilCounts>(
         target.count, [&](std::size_t r, StepScratch& scratch, StencilCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
@@ -70,6 +74,9 @@ struct FullStep {
             state.boundary.half_stress_gradient[static_cast<std::size_t>(b)] =
                 Eval::stress_gradient(source, nb, w, s.stress);
           }
+          if (material_motion)  // x^{n+1} = x^n + dt v^{n+1/2}(x_r), from the midpoint x^n + dt/2 v_r^n
+            for (int d = 0; d < Dim; ++d)
+              state.next_position[d][r] = target.position[d][r] + dt * (s.velocity[d] - 0.5 * target.velocity[d][r]);
           StressVector<Dim> previous;  // sigma_r^n; the Jaumann terms rotate the interpolated s.stress
           for (int m = 0; m < stress_count; ++m) previous[m] = target.stress[m][r];
           const StressVector<Dim> stress = model.update_stress({previous, s.stress, s.velocity_gradient, dt, objective});

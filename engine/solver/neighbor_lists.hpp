@@ -123,7 +123,10 @@ struct NeighborLists {
       for (std::size_t b = 0; b < blocks; ++b) largest = block_largest[b] <= largest ? largest : block_largest[b];
       return std::sqrt(largest);
     };
-    state.lists.real_path_bound += half_dt * largest_speed(state.real);
+    // The move just made: dt/2 |v| after it, or the largest move Motion::move measured.
+    state.lists.real_path_bound +=
+        state.lists.real_move_bound >= 0.0 ? state.lists.real_move_bound : half_dt * largest_speed(state.real);
+    state.lists.real_move_bound = -1.0;
     state.lists.virtual_path_bound += half_dt * largest_speed(state.virtual_);
     const double pair_bound = state.lists.real_path_bound + std::max(state.lists.real_path_bound, state.lists.virtual_path_bound);
     return !(pair_bound <= state.skin_distance() && std::isfinite(pair_bound));

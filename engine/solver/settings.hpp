@@ -58,6 +58,14 @@ struct SolverSettings {
   /// 3D only: a zero-traction particle on a convex axis-parallel edge takes the uniaxial
   /// stress along the edge (boundary/free_edge.hpp). Off by default.
   bool free_edge_uniaxial = false;
+  /// Updated Lagrangian: the real particles move with the velocity the stress sees, the
+  /// virtual half-step velocity interpolated at the particle (x^{n+1} = x^n + dt
+  /// v^{n+1/2}, midpoint rule; solver/kinematics.hpp), instead of the trapezoid of their
+  /// own v^n and v^{n+1}. Their own velocity carries the two-step scheme's
+  /// -dt/2 div sigma / rho at rest (docs/notes/2026-11-25-large-deflection.md): moved by
+  /// it the body drifts and shears with no stress (the large-deflection cantilever
+  /// diverges). On by default; off: the former trapezoid.
+  bool material_velocity_motion = true;
   /// Search of the neighbour lists: cell list, kd-tree, or `automatic` (the rule of
   /// neighbor/neighbor_search.hpp). Same lists either way.
   NeighborSearch neighbor_search = NeighborSearch::automatic;

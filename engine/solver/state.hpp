@@ -11,6 +11,7 @@
 #include "engine/solver/stencil_evaluation.hpp"
 #include "neighbor/neighbor_list.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
@@ -103,6 +104,9 @@ struct SolverLists {
   double sorted_spread = -1.0;  ///< mean row spread of the sorted order (-1: not known yet)
   /// Bounds on the path length of any particle of each set since the last search (skin).
   double real_path_bound = 0.0, virtual_path_bound = 0.0;
+  /// The largest real move of the last Motion::move when it is not dt/2 |v^{n+1}|
+  /// (SolverSettings::material_velocity_motion); -1: dt/2 |v| bounds it.
+  double real_move_bound = -1.0;
   bool surface_decided = false;  ///< BoundaryParticles::on_surface set (at the first build)
 };
 
@@ -122,6 +126,10 @@ struct SolverState {
   double initial_spacing = 0.0;  ///< (mean initial virtual volume)^(1/Dim)
   SolverLists lists;
   BoundaryParticles<Dim> boundary;
+  /// SolverSettings::material_velocity_motion: each real particle's position at n+1,
+  /// written by the full step (NaN: none, the trapezoid applies), read by
+  /// Motion::move in the same step. Scratch, one array per component.
+  std::array<std::vector<double>, Dim> next_position;
 
   /// Checks the settings and both sets, releases the virtual fields the run does not
   /// read, and fills the boundary slots. The lists are built by the solver.
@@ -173,6 +181,8 @@ struct SolverState {
   double support_radius() const { return kSupportFactor * settings.smoothing_length; }
   /// Updated Lagrangian: the particles move.
   bool positions_move() const { return settings.kinematics == Kinematics::updated_lagrangian; }
+  /// Updated Lagrangian with SolverSettings::material_velocity_motion.
+  bool moves_with_material_velocity() const { return positions_move() && settings.material_velocity_motion; }
   /// Updated Lagrangian: the stress rate carries the Jaumann terms.
   bool objective_rates() const { return settings.kinematics == Kinematics::updated_lagrangian; }
   /// Updated Lagrangian: d rho / dt = -rho div v.
