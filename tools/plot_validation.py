@@ -29,7 +29,10 @@ def plot(path: pathlib.Path) -> None:
     rows = list(csv.reader(lines))
     if len(rows) < 2:
         return
-    header, data = rows[0], [[float(v) if v else float("nan") for v in r] for r in rows[1:]]
+    header = rows[0]
+    # A row shorter than the header (a run that stopped mid-row) is padded with NaN.
+    data = [[float(v) if v else float("nan") for v in r] + [float("nan")] * (len(header) - len(r))
+            for r in rows[1:] if r]
     x = [r[0] for r in data]
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for k, name in enumerate(header[1:], start=1):

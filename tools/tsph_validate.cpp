@@ -89,10 +89,25 @@ void print_row(const std::string& name, const Check& c) {
 
 void write_series(const fs::path& dir, const validate::Series& s) {
   std::string text = "# " + s.title + "\n# x: " + s.x_label + "; y: " + s.y_label + "\n";
-  for (std::size_t k = 0; k < s.columns.size(); ++k) text += (k ? "," : "") + s.columns[k];
+  for (std::size_t k = 0; k < s.columns.size(); ++k) {
+    std::string name = s.columns[k];
+    if (name.find_first_of(",\"") != std::string::npos) {  // RFC 4180 quoting: a comma stays in its column
+      std::string quoted(1, '"');
+      for (const char ch : name) {
+        if (ch == '"') quoted.push_back('"');
+        quoted.push_back(ch);
+      }
+      quoted.push_back('"');
+      name = std::move(quoted);
+    }
+    text += (k ? "," : "") + name;
+  }
   text += "\n";
   for (const auto& row : s.rows) {
-    for (std::size_t k = 0; k < row.size(); ++k) text += (k ? "," : "") + fmt::format("{:.12g}", row[k]);
+    for (std::size_t k = 0; k < row.size(); ++k) {
+      if (k) text += ',';
+      text += fmt::format("{:.12g}", row[k]);
+    }
     text += "\n";
   }
   write_file_atomically(dir / (s.name + ".csv"), text);

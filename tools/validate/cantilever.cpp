@@ -91,7 +91,7 @@ Result run_load(const Options& o, double k) {
   Series tip_history{"tip_history_k" + std::to_string(static_cast<int>(k)), "Tip of the axis, k = " + std::to_string(k),
                      "t (s)", "delta / L", {"t"}, {}};
   Series shape{"shape_k" + std::to_string(static_cast<int>(k)), "Deformed axis at the end, k = " + std::to_string(k),
-               "x / L", "y / L", {"x / L", "ref elastica (shear, extension)"}, {}};
+               "x / L", "y / L", {"x / L", "ref elastica (shear + extension)"}, {}};
   for (std::size_t s = 0; s < reference.x.size(); s += 20) shape.rows.push_back({reference.x[s], reference.y[s]});
   for (double dx : spacings) {
     const int nx = static_cast<int>(std::lround(kLength / dx)) + 1, ny = static_cast<int>(std::lround(kDepth / dx)) + 1;
