@@ -7,6 +7,7 @@
 // as the tip's drift over the last 0.3 s of the run (the case's rest criterion reads the
 // real particles' speed, which carries the scheme's O(dt) rest velocity in updated
 // Lagrangian; docs/known-problems.md).
+#include "tools/validate/support.hpp"
 #include "tools/validate/validation_case.hpp"
 
 #include "engine/case/case_file.hpp"
@@ -55,21 +56,18 @@ BeamRun run_beam(const Options& o, double k, double spacing, double end_time, co
   r.quiet = o.quiet;
   r.overrides = overrides;
   r.on_frame = [&](const output::VtuFrame& f, double t) {
-    const output::VtuArray* initial = nullptr;
-    for (const auto& a : f.arrays)
-      if (a.name == "initial_position") initial = &a;
-    if (!initial) return;
+    const std::vector<double>& x0 = array_of(f, "initial_position");
     std::size_t tip = 0;
     double best = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < f.point_count; ++i) {
-      const double d = std::hypot(initial->float64[3 * i] - kLength, initial->float64[3 * i + 1]);
+      const double d = std::hypot(x0[3 * i] - kLength, x0[3 * i + 1]);
       if (d < best) best = d, tip = i;
     }
-    out.tip_history.push_back({t, (f.points[3 * tip + 1] - initial->float64[3 * tip + 1]) / kLength,
+    out.tip_history.push_back({t, (f.points[3 * tip + 1] - x0[3 * tip + 1]) / kLength,
                                f.points[3 * tip] / kLength});
     out.axis.clear();
     for (std::size_t i = 0; i < f.point_count; ++i)
-      if (std::abs(initial->float64[3 * i + 1]) < 1e-9) out.axis.push_back({f.points[3 * i] / kLength, f.points[3 * i + 1] / kLength});
+      if (std::abs(x0[3 * i + 1]) < 1e-9) out.axis.push_back({f.points[3 * i] / kLength, f.points[3 * i + 1] / kLength});
   };
   try {
     run_case(c, r);

@@ -11,6 +11,7 @@
 #include "engine/case/case_run.hpp"
 #include "engine/validation/twisting_column.hpp"
 #include "tools/validate/lattice_measures.hpp"
+#include "tools/validate/support.hpp"
 #include "tools/validate/validation_case.hpp"
 
 #include <fmt/format.h>
@@ -74,8 +75,8 @@ ColumnRun run_column(const Options& o, double alpha, double dx, double end_time,
   options.on_step = [&](const RunOptions::StepRecord& r) { run.energies.push_back(r); };
   options.on_frame = [&](const output::VtuFrame& f, double t) {
     const LatticeFrame<3> lattice(f, lower, upper, dx);
-    const auto& v = frame_array(f, "velocity");
-    const auto& x0 = frame_array(f, "initial_position");
+    const auto& v = array_of(f, "velocity");
+    const auto& x0 = array_of(f, "initial_position");
     const auto& x = f.points;
     const double cell = column.density * dx * dx * dx;
     // Angular momentum about the x axis (y = z = 0): sum m (y v_z - z v_y).
@@ -101,7 +102,7 @@ ColumnRun run_column(const Options& o, double alpha, double dx, double end_time,
     step -= 2.0 * M_PI * std::round(step / (2.0 * M_PI));
     unwrapped += step;
     previous = angle;
-    const auto u = hourglass_residual(lattice, frame_array(f, "displacement"));
+    const auto u = hourglass_residual(lattice, array_of(f, "displacement"));
     const auto w = hourglass_residual(lattice, v);
     run.frames.push_back({t, momentum, unwrapped, u[0] / dx, w[0] / velocity_scale});
   };

@@ -5,6 +5,8 @@
 
 #include "engine/output/vtu_writer.hpp"
 
+#include "tools/validate/support.hpp"
+
 #include <Eigen/Dense>
 
 #include <array>
@@ -16,13 +18,6 @@
 
 namespace tsph::validate {
 
-/// A frame's array by name (throws naming it when the case does not write it).
-inline const std::vector<double>& frame_array(const output::VtuFrame& f, const std::string& name) {
-  for (const auto& a : f.arrays)
-    if (a.name == name) return a.float64;
-  throw std::runtime_error("validation: the frame has no '" + name + "' array: add it to output.fields");
-}
-
 /// The real particles' places on the initial lattice of a single box (lower, dx, node counts).
 template <int Dim>
 struct LatticeFrame {
@@ -33,7 +28,7 @@ struct LatticeFrame {
   LatticeFrame(const output::VtuFrame& f, const std::array<double, Dim>& lower, const std::array<double, Dim>& upper,
                double dx) {
     for (int d = 0; d < Dim; ++d) nodes[d] = static_cast<int>(std::lround((upper[d] - lower[d]) / dx)) + 1;
-    const auto& x0 = frame_array(f, "initial_position");
+    const auto& x0 = array_of(f, "initial_position");
     index.resize(f.point_count);
     for (std::size_t i = 0; i < f.point_count; ++i) {
       for (int d = 0; d < Dim; ++d) index[i][d] = static_cast<int>(std::lround((x0[3 * i + d] - lower[d]) / dx));

@@ -11,6 +11,7 @@
 #include "engine/case/case_run.hpp"
 #include "engine/validation/plate.hpp"
 #include "tools/validate/lattice_measures.hpp"
+#include "tools/validate/support.hpp"
 #include "tools/validate/validation_case.hpp"
 
 #include <fmt/format.h>
@@ -112,7 +113,7 @@ PlateRun run_plate(const Options& o, double v_f, double alpha, double dx, double
   options.on_step = [&](const RunOptions::StepRecord& r) { run.energies.push_back(r); };
   options.on_frame = [&](const output::VtuFrame& f, double t) {
     const LatticeFrame<2> lattice(f, lower, upper, dx);
-    const auto& v = frame_array(f, "velocity");
+    const auto& v = array_of(f, "velocity");
     if (t == 0.0) {
       double energy = 0.0, mass = 0.0;
       for (std::size_t i = 0; i < f.point_count; ++i) {
@@ -123,7 +124,7 @@ PlateRun run_plate(const Options& o, double v_f, double alpha, double dx, double
       run.initial_energy = energy;
       velocity_scale = std::sqrt(2.0 * energy / mass);
     }
-    const auto u = hourglass_residual(lattice, frame_array(f, "displacement"));
+    const auto u = hourglass_residual(lattice, array_of(f, "displacement"));
     const auto w = hourglass_residual(lattice, v);
     run.hourglass.push_back({t, u[0] / dx, u[1] / dx, w[0] / velocity_scale});
   };
