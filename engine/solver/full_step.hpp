@@ -11,7 +11,10 @@
 #include "engine/solver/stencil_evaluation.hpp"
 
 #include <cstdint>
+#include <algorithm>
 #include <limits>
+#include <span>
+#include <vector>
 
 namespace tsph {
 
@@ -35,15 +38,21 @@ struct FullStep {
     const bool objective = state.objective_rates(), compressible = state.density_follows();
     NeighborLists<Dim>::prepare_full_step(state);  // without skin in updated Lagrangian: searched now
     const bool material_motion = state.moves_with_material_velocity();
+    const bool widen_rows = state.positions_move() && state.settings.widen_deficient_stencils;
     if (material_motion)
       for (auto& component : state.next_position) component.assign(target.count, std::numeric_limits<double>::quiet_NaN());
     state.add(parallel_for_with_scratch<StepScratch, StencilCounts>(
         target.count, [&](std::size_t r, StepScratch& scratch, StencilCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
-          const auto nb = state.lists.real_from_virtual.neighbors(r);
-          const StencilStatus status =
-              compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
-                                   source.volume, nb, state.settings.interpolation, w);
+          std::span<const std::uint32_t> nb = state.lists.real_from_virtual.neighbors(r);
+          StencilStatus status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
+                                                      source.volume, nb, state.settings.interpolation, w);
+          double h_row = h;  // the row's smoothing length: h, or that of a widened stencil
+          if ((status.gradient_fallback || status.interpolation_fallback) && widen_rows &&
+              widen(state, kernel, r, source_points, source.volume, scratch, h_row, status)) {
+            nb = scratch.wide_row;
+            ++counts.widened;
+          }
           counts += status;
           if (status.no_neighbors) {
             if (const std::int32_t b = state.boundary.slot[r]; b >= 0) {  // no stale gradients
@@ -62,9 +71,10 @@ struct FullStep {
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
             Vec centroid = Vec::Zero();  // of the virtual stencil (surface_extrapolation)
             std::size_t in_support = 0;  // a row with a skin also holds pairs beyond 2h
+            const double row_radius = kSupportFactor * h_row;
             for (std::size_t k = 0; k < nb.size(); ++k) {
               gradient_sum += w.gradient_of(k);
-              if (!state.within_support(target_points, r, source_points, nb[k])) continue;
+              if (squared_distance<Dim>(target_points, r, source_points, nb[k]) > row_radius * row_radius) continue;
               centroid += state.virtual_.position_of(nb[k]);
               ++in_support;
             }
@@ -90,6 +100,48 @@ struct FullStep {
             target.volume[r] = target.mass[r] / target.density[r];
           }
         }));
+  }
+
+  /// SolverSettings::widen_deficient_stencils: a real particle whose virtual stencil
+  /// leaves its corrected gradient rank-deficient (a corner with one virtual neighbour
+  /// at h / dx = 0.6 in 2D, an edge or a corner in 3D: the gradient of every field is 0
+  /// there, so the particle feels no stress divergence and, in a rigid rotation, no
+  /// centripetal force; docs/notes/2026-11-26-deficient-stencils.md) takes the virtual
+  /// particles of its own row and of its real neighbours' rows (boundary particles
+  /// only: state.lists.real_from_real), with the smoothing length grown by 1.5, then 2,
+  /// until the correction matrix is regular. On success the weights in scratch.weights
+  /// belong to scratch.wide_row, h_row is the length used and status that stencil's;
+  /// otherwise the row's own weights are computed again and false returned.
+  template <class Kernel>
+  static bool widen(const SolverState<Dim>& state, const Kernel& kernel, std::size_t r,
+                    const PointsView<Dim>& source_points, const double* source_volume, StepScratch& scratch,
+                    double& h_row, StencilStatus& status) {
+    const std::int32_t b = state.boundary.slot[r];
+    const NeighborList& own = state.lists.real_from_virtual;
+    const double h = state.settings.smoothing_length;
+    const auto x = points_of<Dim>(state.real);
+    Vec x_r;
+    for (int d = 0; d < Dim; ++d) x_r[d] = x.coordinate[d][r];
+    std::vector<std::uint32_t>& row = scratch.wide_row;
+    if (b >= 0) {
+      row.assign(own.neighbors(r).begin(), own.neighbors(r).end());
+      for (const std::uint32_t j : state.lists.real_from_real.neighbors(r))
+        row.insert(row.end(), own.neighbors(j).begin(), own.neighbors(j).end());
+      std::sort(row.begin(), row.end());
+      row.erase(std::unique(row.begin(), row.end()), row.end());
+      for (const double factor : {1.5, 2.0}) {
+        const StencilStatus wide = compute_stencil<Dim>(kernel, factor * h, x_r, source_points, source_volume, row,
+                                                        state.settings.interpolation, scratch.weights);
+        if (!wide.gradient_fallback && !wide.interpolation_fallback && !wide.no_neighbors) {
+          h_row = factor * h;
+          status = wide;
+          return true;
+        }
+      }
+    }
+    status = compute_stencil<Dim>(kernel, h, x_r, source_points, source_volume, own.neighbors(r),
+                                  state.settings.interpolation, scratch.weights);
+    return false;
   }
 };
 

@@ -236,6 +236,7 @@ struct SolverState {
     counters.empty_stencils += counts.empty;
     counters.interpolation_fallbacks += counts.interpolation;
     counters.gradient_fallbacks += counts.gradient;
+    counters.widened_stencils += counts.widened;
   }
 
  private:

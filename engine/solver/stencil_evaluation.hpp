@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace tsph {
 
@@ -55,6 +56,7 @@ struct StencilEvaluation {
   struct StepScratch {
     StencilWeights<Dim> weights;
     GatheredSource gathered;
+    std::vector<std::uint32_t> wide_row;  ///< a widened stencil (full_step.hpp, widen)
   };
 
   /// The body of evaluate, compiled once per instruction set (kernels/simd.hpp).
@@ -167,7 +169,7 @@ struct StencilEvaluation {
 
 /// Per-thread tally of stencil fallbacks (SolverCounters).
 struct StencilCounts {
-  std::int64_t empty = 0, interpolation = 0, gradient = 0;
+  std::int64_t empty = 0, interpolation = 0, gradient = 0, widened = 0;
   StencilCounts& operator+=(const StencilStatus& status) {
     empty += status.no_neighbors;
     interpolation += status.interpolation_fallback;
@@ -178,6 +180,7 @@ struct StencilCounts {
     empty += other.empty;
     interpolation += other.interpolation;
     gradient += other.gradient;
+    widened += other.widened;
     return *this;
   }
 };
