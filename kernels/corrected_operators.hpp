@@ -46,9 +46,9 @@ inline std::string_view to_string(InterpolationKind kind) {
 
 /// Ill-conditioning threshold on the infinity-norm condition number of the
 /// (dimensionless) correction and moment matrices.
-inline constexpr double kMaxConditionNumber = 1e10;
+inline constexpr double kMaxConditionNumber = 1e4;
 /// Smallest det / prod(diagonal) of a correction or moment matrix taken as regular.
-inline constexpr double kMinHadamardRatio = 1e-10;
+inline constexpr double kMinHadamardRatio = 1e-4;
 
 /// What happened while computing one stencil; summed into run counters.
 struct StencilStatus {

@@ -270,7 +270,10 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
                                  : SolverSettings<Dim>::VelocityWall::characteristics;
   b.settings.surface_extrapolation = c.surface_extrapolation;
   b.settings.material_velocity_motion = c.material_velocity_motion;
-  b.settings.widen_deficient_stencils = c.widen_deficient_stencils;
+  using Deficient = typename SolverSettings<Dim>::DeficientStencils;
+  b.settings.deficient_stencils = c.deficient_stencils == "widen"          ? Deficient::widen
+                                  : c.deficient_stencils == "widen_motion" ? Deficient::widen_motion
+                                                                           : Deficient::keep;
   b.settings.free_edge_uniaxial = c.free_edge_uniaxial;
   b.settings.neighbor_search = c.neighbor_search;
   b.settings.transpose_lists = c.transpose_lists;

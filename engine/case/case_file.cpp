@@ -247,7 +247,8 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
                           : CaseFile::VelocityWall::characteristics;
     c.surface_extrapolation = m.boolean("surface_extrapolation").value_or(false);
     c.material_velocity_motion = m.boolean("material_velocity_motion").value_or(true);
-    c.widen_deficient_stencils = m.boolean("widen_deficient_stencils").value_or(true);
+    c.deficient_stencils =
+        m.text("deficient_stencils", false, {"keep", "widen", "widen_motion"}).value_or("keep");
     c.free_edge_uniaxial = m.boolean("free_edge_uniaxial").value_or(false);
     if (c.free_edge_uniaxial && c.dimension != 3)
       context.invalid(m.get("free_edge_uniaxial", false, ""), m.path("free_edge_uniaxial"),

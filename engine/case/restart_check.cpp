@@ -99,7 +99,7 @@ std::string physics_record(const CaseFile& c) {
   r.add_text("method.velocity_wall", c.velocity_wall == CaseFile::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics");
   r.add("method.surface_extrapolation", c.surface_extrapolation);
   r.add("method.material_velocity_motion", c.material_velocity_motion);
-  r.add("method.widen_deficient_stencils", c.widen_deficient_stencils);
+  r.add("method.deficient_stencils", c.deficient_stencils);
   r.add("method.free_edge_uniaxial", c.free_edge_uniaxial);
   r.add("method.body_force", c.body_force);
   r.add_text("solver.neighbor_search", std::string(to_string(c.neighbor_search)));

@@ -38,7 +38,8 @@ struct FullStep {
     const bool objective = state.objective_rates(), compressible = state.density_follows();
     NeighborLists<Dim>::prepare_full_step(state);  // without skin in updated Lagrangian: searched now
     const bool material_motion = state.moves_with_material_velocity();
-    const bool widen_rows = state.positions_move() && state.settings.widen_deficient_stencils;
+    using Deficient = typename SolverSettings<Dim>::DeficientStencils;
+    const Deficient deficient = state.positions_move() ? state.settings.deficient_stencils : Deficient::keep;
     if (material_motion)
       for (auto& component : state.next_position) component.assign(target.count, std::numeric_limits<double>::quiet_NaN());
     state.add(parallel_for_with_scratch<StepScratch, StencilCounts>(
@@ -48,7 +49,13 @@ struct FullStep {
           StencilStatus status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
                                                       source.volume, nb, state.settings.interpolation, w);
           double h_row = h;  // the row's smoothing length: h, or that of a widened stencil
-          if ((status.gradient_fallback || status.interpolation_fallback) && widen_rows &&
+          // Interpolation alone deficient (an edge at alpha 0.6: two virtual neighbours
+          // at one depth): the update keeps the row, the motion takes the widened one.
+          const bool widen_motion = deficient == Deficient::widen_motion && status.interpolation_fallback &&
+                                    !status.gradient_fallback && material_motion;
+          const bool widen_row = deficient == Deficient::widen ? status.gradient_fallback || status.interpolation_fallback
+                                                               : deficient == Deficient::widen_motion && status.gradient_fallback;
+          if (widen_row &&
               widen(state, kernel, r, source_points, source.volume, scratch, h_row, status)) {
             nb = scratch.wide_row;
             ++counts.widened;
@@ -84,9 +91,19 @@ struct FullStep {
             state.boundary.half_stress_gradient[static_cast<std::size_t>(b)] =
                 Eval::stress_gradient(source, nb, w, s.stress);
           }
-          if (material_motion)  // x^{n+1} = x^n + dt v^{n+1/2}(x_r), from the midpoint x^n + dt/2 v_r^n
+          if (material_motion) {  // x^{n+1} = x^n + dt v^{n+1/2}(x_r), from the midpoint x^n + dt/2 v_r^n
+            Vec half_velocity = s.velocity;
+            if (widen_motion) {  // the Shepard value belongs to the stencil's centroid, dx/2 inside
+              double h_wide = h;
+              StencilStatus wide_status;
+              if (widen(state, kernel, r, source_points, source.volume, scratch, h_wide, wide_status)) {
+                half_velocity = Eval::evaluate(source, scratch.wide_row, w, scratch.gathered).velocity;
+                ++counts.widened;
+              }
+            }
             for (int d = 0; d < Dim; ++d)
-              state.next_position[d][r] = target.position[d][r] + dt * (s.velocity[d] - 0.5 * target.velocity[d][r]);
+              state.next_position[d][r] = target.position[d][r] + dt * (half_velocity[d] - 0.5 * target.velocity[d][r]);
+          }
           StressVector<Dim> previous;  // sigma_r^n; the Jaumann terms rotate the interpolated s.stress
           for (int m = 0; m < stress_count; ++m) previous[m] = target.stress[m][r];
           const StressVector<Dim> stress = model.update_stress({previous, s.stress, s.velocity_gradient, dt, objective});
@@ -102,8 +119,8 @@ struct FullStep {
         }));
   }
 
-  /// SolverSettings::widen_deficient_stencils: a real particle whose virtual stencil
-  /// leaves its corrected gradient rank-deficient (a corner with one virtual neighbour
+  /// SolverSettings::deficient_stencils: a real particle whose virtual stencil
+  /// leaves its corrected gradient (or its linear interpolation) rank-deficient (a corner with one virtual neighbour
   /// at h / dx = 0.6 in 2D, an edge or a corner in 3D: the gradient of every field is 0
   /// there, so the particle feels no stress divergence and, in a rigid rotation, no
   /// centripetal force; docs/notes/2026-11-26-deficient-stencils.md) takes the virtual
@@ -123,7 +140,7 @@ struct FullStep {
     Vec x_r;
     for (int d = 0; d < Dim; ++d) x_r[d] = x.coordinate[d][r];
     std::vector<std::uint32_t>& row = scratch.wide_row;
-    if (b >= 0) {
+    if (b >= 0 && state.lists.real_from_real.query_count() > r) {
       row.assign(own.neighbors(r).begin(), own.neighbors(r).end());
       for (const std::uint32_t j : state.lists.real_from_real.neighbors(r))
         row.insert(row.end(), own.neighbors(j).begin(), own.neighbors(j).end());

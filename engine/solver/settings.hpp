@@ -66,11 +66,17 @@ struct SolverSettings {
   /// it the body drifts and shears with no stress (the large-deflection cantilever
   /// diverges). On by default; off: the former trapezoid.
   bool material_velocity_motion = true;
-  /// A boundary particle whose full-step stencil leaves the corrected gradient
-  /// rank-deficient (a corner at h / dx = 0.6, an edge in 3D) takes a widened stencil:
-  /// the virtual particles of its real neighbours too, with h grown by 1.5 or 2
-  /// (solver/full_step.hpp, widen). Off: such a particle has a zero gradient.
-  bool widen_deficient_stencils = true;
+  /// Updated Lagrangian, experimental (issue 14; docs/notes/2026-11-26-deficient-stencils.md):
+  /// a boundary particle whose full-step stencil is rank-deficient (a corner at
+  /// h / dx = 0.6: one virtual neighbour, zero gradient; an edge: two, no linear
+  /// interpolation) may take a widened stencil, the virtual particles of its real
+  /// neighbours too with h grown by 1.5 or 2 (solver/full_step.hpp, widen).
+  /// keep: the row as it is (the default: widening made the bending cases stiffer);
+  /// widen: every deficient row, for the update and the motion; widen_motion: rows with
+  /// a deficient gradient for both, rows with only a deficient interpolation for the
+  /// motion velocity alone.
+  enum class DeficientStencils { keep, widen, widen_motion };
+  DeficientStencils deficient_stencils = DeficientStencils::keep;
   /// Search of the neighbour lists: cell list, kd-tree, or `automatic` (the rule of
   /// neighbor/neighbor_search.hpp). Same lists either way.
   NeighborSearch neighbor_search = NeighborSearch::automatic;
@@ -100,7 +106,7 @@ struct SolverCounters {
   std::int64_t empty_stencils = 0;
   std::int64_t interpolation_fallbacks = 0;
   std::int64_t gradient_fallbacks = 0;
-  /// Full-step rows widened (SolverSettings::widen_deficient_stencils); their status is
+  /// Full-step rows widened (SolverSettings::deficient_stencils); their status is
   /// that of the widened stencil.
   std::int64_t widened_stencils = 0;
   std::int64_t reorders = 0;  ///< sorts of the particle sets (SolverSettings::spatial_order)
