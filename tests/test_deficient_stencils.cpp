@@ -1,8 +1,6 @@
-// Deficient stencils (issue 14; docs/notes/2026-11-26-deficient-stencils.md):
-//  * a nearly singular correction matrix (four virtual neighbours of a 3D face particle,
-//    coplanar but for a small motion) is treated as singular: its gradient would
-//    amplify the data by the inverse of the tiny eigenvalue (the 3D rotating cube at
-//    alpha 0.6 blew up in 3 steps);
+// Deficient stencils (issue 14; docs/notes/2026-11-25-deficient-stencils.md):
+//  * the four virtual neighbours of a 3D face particle at alpha 0.6 lie in one plane:
+//    a regular gradient, no linear interpolation (Shepard);
 //  * in updated Lagrangian with method.deficient_stencils = widen or widen_motion
 //    (experimental, off by default) a real particle whose virtual stencil is deficient
 //    (the corner of a 2D block at alpha 0.6: one virtual neighbour) takes a widened
@@ -32,20 +30,20 @@ StencilStatus face_stencil(double lift, StencilWeights<3>& w) {
                             InterpolationKind::linear, w);
 }
 
-TEST(DeficientStencils, NearlyCoplanarNeighboursAreSingular) {
+TEST(DeficientStencils, CoplanarNeighboursHaveNoLinearInterpolation) {
+  // The offsets span 3D (the correction matrix is regular), but the points lie in one
+  // plane: the linear interpolation's moment matrix [1; o][1; o]^T is singular.
   StencilWeights<3> w;
-  EXPECT_TRUE(face_stencil(0.0, w).gradient_fallback);  // exactly coplanar: rank 2
-  // A lift of 1e-3 dx: rank 3, condition number about 1e6; accepted before (threshold
-  // 1e10), when its normal gradient weights were about 1e3 / dx.
-  const StencilStatus lifted = face_stencil(1e-3, w);
-  EXPECT_TRUE(lifted.gradient_fallback);
-  EXPECT_TRUE(lifted.interpolation_fallback);
-  double largest = 0.0;
-  for (std::size_t k = 0; k < 4; ++k) largest = std::max(largest, w.gradient_of(k).norm());
-  EXPECT_LT(largest, 10.0);  // the pseudo-inverse drops the ill-determined direction
-  // A lift of 0.3 dx is a regular stencil (no fallback).
-  EXPECT_FALSE(face_stencil(0.3, w).gradient_fallback);
+  const StencilStatus flat = face_stencil(0.0, w);
+  EXPECT_FALSE(flat.gradient_fallback);
+  EXPECT_TRUE(flat.interpolation_fallback);
+  // A lift of 0.3 dx: a regular stencil, no fallback. (In between, a nearly coplanar
+  // stencil passes the moment matrix's bounds while its linear weights grow as
+  // 1 / lift: the open problem of docs/notes/2026-11-25-deficient-stencils.md.)
+  EXPECT_FALSE(face_stencil(0.3, w).interpolation_fallback);
 }
+
+using Deficient = SolverSettings<2>::DeficientStencils;
 
 const std::string kFreeBlock = R"(
 dimension = 2
@@ -76,35 +74,39 @@ region = [
 velocity_gradient = [0.01, 0.0, 0.0, 0.01]
 )";
 
-// One step of a uniformly dilating free block: every particle's density falls by
-// exp(-dt tr L) to first order, the corners too when their stencil is widened.
-using Deficient = SolverSettings<2>::DeficientStencils;
-double worst_corner_density_error(Deficient deficient, std::int64_t& widened) {
-  const CaseFile c = load_case_text(kFreeBlock + "", "block.toml");
+// One step of a uniformly dilating free block: the corners' density changes as that of
+// their neighbours on the edges (the free surface's characteristics make both differ
+// from the bulk's exp(-dt tr L) in this first step) when their stencil is widened, and
+// not at all (zero velocity gradient) when it is kept.
+double worst_corner_density_change(Deficient deficient, std::int64_t& widened) {
+  const CaseFile c = load_case_text(kFreeBlock, "block.toml");
   BuiltCase<2> b = build_case<2>(c);
   b.settings.deficient_stencils = deficient;
   TaylorSph<2> solver = make_solver(c, b);
   solver.step(b.dt);
   widened = solver.counters().widened_stencils;
-  const double expected = std::exp(-b.dt * 0.02);
-  double worst = 0.0;
   const auto& r = solver.real();
+  double edge = 0.0, worst = 0.0;  // an edge particle's change, and the corners' worst
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    const double x = r.initial_position[0][i], y = r.initial_position[1][i];
+    if (std::abs(x) < 1e-9 && std::abs(y + 0.5) < 1e-9) edge = 1.0 - r.density[i] / 1000.0;
+  }
+  EXPECT_GT(edge, 0.0);
   for (std::size_t i = 0; i < r.size(); ++i) {
     const double x = r.initial_position[0][i], y = r.initial_position[1][i];
     if (std::abs(std::abs(x) - 0.5) < 1e-9 && std::abs(std::abs(y) - 0.5) < 1e-9)
-      worst = std::max(worst, std::abs(r.density[i] / 1000.0 - expected) / (1.0 - expected));
+      worst = std::max(worst, std::abs(1.0 - r.density[i] / 1000.0 - edge) / edge);
   }
   return worst;
 }
 
 TEST(DeficientStencils, CornersSeeTheVelocityGradientInUpdatedLagrangian) {
   std::int64_t widened = 0;
-  EXPECT_LT(worst_corner_density_error(Deficient::widen, widened), 0.05);
-  // 4 corners and 4 x 9 edge particles (linear interpolation needs 3 neighbours).
-  EXPECT_EQ(widened, 40);
-  EXPECT_LT(worst_corner_density_error(Deficient::widen_motion, widened), 0.05);
+  EXPECT_LT(worst_corner_density_change(Deficient::widen, widened), 1e-6);
+  EXPECT_EQ(widened, 40);  // 4 corners and 4 x 9 edge particles (linear interpolation needs 3)
+  EXPECT_LT(worst_corner_density_change(Deficient::widen_motion, widened), 1e-6);
   EXPECT_EQ(widened, 40);  // the corners for both, the edges for the motion
-  EXPECT_GT(worst_corner_density_error(Deficient::keep, widened), 0.9);  // no gradient: no change
+  EXPECT_GT(worst_corner_density_change(Deficient::keep, widened), 0.99);  // no gradient: no change
   EXPECT_EQ(widened, 0);
 }
 

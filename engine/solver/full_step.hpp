@@ -123,7 +123,7 @@ struct FullStep {
   /// leaves its corrected gradient (or its linear interpolation) rank-deficient (a corner with one virtual neighbour
   /// at h / dx = 0.6 in 2D, an edge or a corner in 3D: the gradient of every field is 0
   /// there, so the particle feels no stress divergence and, in a rigid rotation, no
-  /// centripetal force; docs/notes/2026-11-26-deficient-stencils.md) takes the virtual
+  /// centripetal force; docs/notes/2026-11-25-deficient-stencils.md) takes the virtual
   /// particles of its own row and of its real neighbours' rows (boundary particles
   /// only: state.lists.real_from_real), with the smoothing length grown by 1.5, then 2,
   /// until the correction matrix is regular. On success the weights in scratch.weights

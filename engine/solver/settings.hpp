@@ -66,7 +66,7 @@ struct SolverSettings {
   /// it the body drifts and shears with no stress (the large-deflection cantilever
   /// diverges). On by default; off: the former trapezoid.
   bool material_velocity_motion = true;
-  /// Updated Lagrangian, experimental (issue 14; docs/notes/2026-11-26-deficient-stencils.md):
+  /// Updated Lagrangian, experimental (issue 14; docs/notes/2026-11-25-deficient-stencils.md):
   /// a boundary particle whose full-step stencil is rank-deficient (a corner at
   /// h / dx = 0.6: one virtual neighbour, zero gradient; an edge: two, no linear
   /// interpolation) may take a widened stencil, the virtual particles of its real
