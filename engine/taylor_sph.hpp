@@ -69,8 +69,12 @@ class TaylorSph {
     visit_stages([&](const auto& kernel, const auto& model) {
       CharacteristicBoundary<Dim>::gradients_at_n(state_, kernel);  // grad U^n at the boundary
       HalfStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (3): real -> virtual
-      if (settings.conservative_momentum) momentum_.store_weights(state_, kernel);
       Motion<Dim>::first_half(state_, dt);                            // to x^{n+1/2} (or u += dt/2 v^n)
+      // The weak form's weights in the configuration the full step evaluates in (the
+      // midpoint in updated Lagrangian): its forces exert no torque about it, and the
+      // spin is kept (docs/notes/2026-11-26-rotation-drift.md; at x^n it grew by
+      // omega^2 dt^2 / 2 per step).
+      if (settings.conservative_momentum) momentum_.store_weights(state_, kernel);
       FullStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (4): virtual -> real
       CharacteristicBoundary<Dim>::apply(state_, model, dt, t_new);   // boundary state at n+1
       if (settings.conservative_momentum) momentum_.apply(state_, dt, t_new);

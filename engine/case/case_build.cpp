@@ -270,6 +270,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
                                  : SolverSettings<Dim>::VelocityWall::characteristics;
   b.settings.surface_extrapolation = c.surface_extrapolation;
   b.settings.material_velocity_motion = c.material_velocity_motion;
+  b.settings.conservative_momentum = c.conservative_momentum;
   using Deficient = typename SolverSettings<Dim>::DeficientStencils;
   b.settings.deficient_stencils = c.deficient_stencils == "widen"          ? Deficient::widen
                                   : c.deficient_stencils == "widen_motion" ? Deficient::widen_motion

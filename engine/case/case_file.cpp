@@ -247,6 +247,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
                           : CaseFile::VelocityWall::characteristics;
     c.surface_extrapolation = m.boolean("surface_extrapolation").value_or(false);
     c.material_velocity_motion = m.boolean("material_velocity_motion").value_or(true);
+    c.conservative_momentum = m.boolean("conservative_momentum").value_or(false);
     c.deficient_stencils =
         m.text("deficient_stencils", false, {"keep", "widen", "widen_motion"}).value_or("keep");
     c.free_edge_uniaxial = m.boolean("free_edge_uniaxial").value_or(false);

@@ -112,6 +112,7 @@ struct CaseFile {
   VelocityWall velocity_wall = VelocityWall::characteristics;
   bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
   bool material_velocity_motion = true;  ///< SolverSettings::material_velocity_motion
+  bool conservative_momentum = false;    ///< SolverSettings::conservative_momentum
   std::string deficient_stencils = "keep";  ///< SolverSettings::deficient_stencils: keep, widen, widen_motion
   bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D only)
   std::vector<double> body_force;

@@ -99,6 +99,7 @@ std::string physics_record(const CaseFile& c) {
   r.add_text("method.velocity_wall", c.velocity_wall == CaseFile::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics");
   r.add("method.surface_extrapolation", c.surface_extrapolation);
   r.add("method.material_velocity_motion", c.material_velocity_motion);
+  r.add("method.conservative_momentum", c.conservative_momentum);
   r.add("method.deficient_stencils", c.deficient_stencils);
   r.add("method.free_edge_uniaxial", c.free_edge_uniaxial);
   r.add("method.body_force", c.body_force);

@@ -49,7 +49,10 @@ struct SolverSettings {
   VelocityWall velocity_wall = VelocityWall::characteristics;
   /// Momentum update of the particles without a velocity condition or a load in
   /// conservative (weak) form, m_I dv_I/dt = -sum_v V_v sigma_v . D_vI
-  /// (boundary/conservative_momentum.hpp). Off by default.
+  /// (boundary/conservative_momentum.hpp). Its forces exert no net torque: a free
+  /// spinning body keeps its angular momentum (docs/notes/2026-11-26-rotation-drift.md),
+  /// but the first row inside free faces is not linear-exact (the large-deflection
+  /// cantilever is 10 % too soft). Off by default; case key method.conservative_momentum.
   bool conservative_momentum = false;
   /// The tangential velocity gradient of traction-free surface particles extrapolated
   /// from their virtual stencil's centroid to the surface (stabilisation/

@@ -22,7 +22,8 @@ class ConservativeMomentum {
  public:
   using Vec = Vector<Dim>;
 
-  /// Part 1, right after the half step: v^n, and the weights D_vJ = G_vJ - Wn_vJ sum_K G_vK of the half step's
+  /// Part 1, after the half step and Motion::first_half (updated Lagrangian: in the
+  /// midpoint configuration, about which the forces then exert no torque): v^n, and the weights D_vJ = G_vJ - Wn_vJ sum_K G_vK of the half step's
   /// corrected gradient (grad f)_v = sum_J D_vJ f_J (configuration n), per pair of
   /// state.lists.virtual_from_real, and the transposed pair list (rows: real particles, entries:
   /// pair indices in increasing virtual order, so the sums are deterministic).
