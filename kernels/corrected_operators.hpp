@@ -49,14 +49,6 @@ inline std::string_view to_string(InterpolationKind kind) {
 inline constexpr double kMaxConditionNumber = 1e10;
 /// Smallest det / prod(diagonal) of a correction or moment matrix taken as regular.
 inline constexpr double kMinHadamardRatio = 1e-10;
-/// Largest amplification of `linear` interpolation: a bound on its Lebesgue constant
-/// sum_J |V_J W~_IJ| (Shepard: 1) above which the row falls back to Shepard. The four
-/// virtual neighbours of a 3D face particle at h / dx = 0.6 lie in one plane; after the
-/// first motion of an updated-Lagrangian run only nearly so, and their moment matrix
-/// passes the bounds above while its weights grow as 1 / (distance from the plane)
-/// (the rotating cube at alpha 0.6 blew up in 3 steps;
-/// docs/notes/2026-11-25-deficient-stencils.md).
-inline constexpr double kMaxInterpolationAmplification = 10.0;
 
 /// What happened while computing one stencil; summed into run counters.
 struct StencilStatus {
@@ -254,18 +246,6 @@ template <int Dim, class Kernel>
     if (interpolation == InterpolationKind::linear) {
       bool linear_ok = false;
       const Moments inverse = checked_inverse<Dim + 1>(moments, linear_ok);
-      // W~_IJ = W_IJ (a + b . d_J), d = o / h. With the centroid c = m1 / M0 of the
-      // stencil, a + b . c = 1 / M0 (sum_J V_J W~_IJ = 1), so by Cauchy-Schwarz
-      //   sum_J V_J |W~_IJ| <= 1 + sqrt(M0 b^T C b),  C = M2 - m1 m1^T / M0,
-      // C the centred second moments: the spread of the stencil along b.
-      if (linear_ok) {
-        Eigen::Matrix<double, Dim, 1> b = inverse.col(0).template tail<Dim>();
-        Eigen::Matrix<double, Dim, 1> first = moments.col(0).template tail<Dim>();
-        const Mat second = moments.template bottomRightCorner<Dim, Dim>();
-        const double first_b = first.dot(b);
-        const double spread = std::max(0.0, b.dot(second * b) - first_b * first_b / kernel_total);
-        linear_ok = 1.0 + std::sqrt(kernel_total * spread) <= kMaxInterpolationAmplification;
-      }
       if (linear_ok) {
         scale = Scale::linear;
         a = inverse(0, 0);
