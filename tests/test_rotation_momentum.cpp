@@ -17,36 +17,13 @@
 namespace tsph {
 namespace {
 
-// rotation_2d.toml at 11 x 11, alpha 1.2: omega = 2 rad/s about the centre.
-const std::string kSpinningBlock = R"(
-title = "free rigid rotation"
-dimension = 2
-[geometry]
-spacing = 0.1
-box = { lower = [-0.5, -0.5], upper = [0.5, 0.5] }
-[material]
-E = 1e6
-nu = 0.3
-rho = 1000.0
-plane = "strain"
-[method]
-alpha = 1.2
-kinematics = "updated_lagrangian"
-[time]
-end = 1.0
-cfl = 0.9
-[[boundary]]
-name = "free surface"
-type = "free"
-region = [
-  { type = "half_space", point = [0.5, 0.0], normal = [1.0, 0.0] },
-  { type = "half_space", point = [-0.5, 0.0], normal = [-1.0, 0.0] },
-  { type = "half_space", point = [0.0, 0.5], normal = [0.0, 1.0] },
-  { type = "half_space", point = [0.0, -0.5], normal = [0.0, -1.0] },
-]
-[initial]
-velocity_gradient = [0.0, -2.0, 2.0, 0.0]
-)";
+// The shipped tools/cases/rotation_2d.toml at 11 x 11, alpha 1.2: omega = 2 rad/s
+// about the centre.
+CaseFile spinning_block(bool conservative) {
+  return load_case(std::string(TSPH_SOURCE_DIR) + "/tools/cases/rotation_2d.toml",
+                   {"geometry.spacing=0.1", "method.alpha=1.2",
+                    std::string("method.conservative_momentum=") + (conservative ? "true" : "false")});
+}
 
 double angular_momentum(const ParticleSet<2>& r) {
   double m = 0.0, cx = 0.0, cy = 0.0;
@@ -65,8 +42,7 @@ double angular_momentum(const ParticleSet<2>& r) {
 
 // |L - L0| / L0 after 300 steps (0.74 s, a quarter turn).
 double momentum_change(bool conservative) {
-  const CaseFile c = load_case_text(kSpinningBlock, "spin.toml",
-                                    {std::string("method.conservative_momentum=") + (conservative ? "true" : "false")});
+  const CaseFile c = spinning_block(conservative);
   BuiltCase<2> b = build_case<2>(c);
   TaylorSph<2> solver = make_solver(c, b);
   const double l0 = angular_momentum(solver.real());

@@ -10,8 +10,8 @@
 #include "engine/solver/state.hpp"
 #include "engine/solver/stencil_evaluation.hpp"
 
-#include <cstdint>
 #include <algorithm>
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <vector>
@@ -56,7 +56,7 @@ struct FullStep {
           const bool widen_row = deficient == Deficient::widen ? status.gradient_fallback || status.interpolation_fallback
                                                                : deficient == Deficient::widen_motion && status.gradient_fallback;
           if (widen_row &&
-              widen(state, kernel, r, source_points, source.volume, scratch, h_row, status)) {
+              widen(state, kernel, r, target.position_of(r), source_points, source.volume, scratch, h_row, status)) {
             nb = scratch.wide_row;
             ++counts.widened;
           }
@@ -78,10 +78,12 @@ struct FullStep {
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
             Vec centroid = Vec::Zero();  // of the virtual stencil (surface_extrapolation)
             std::size_t in_support = 0;  // a row with a skin also holds pairs beyond 2h
-            const double row_radius = kSupportFactor * h_row;
+            const double row_radius = kSupportFactor * h_row;  // a widened row is not the list's
             for (std::size_t k = 0; k < nb.size(); ++k) {
               gradient_sum += w.gradient_of(k);
-              if (squared_distance<Dim>(target_points, r, source_points, nb[k]) > row_radius * row_radius) continue;
+              if (h_row == h ? !state.within_support(target_points, r, source_points, nb[k])
+                             : squared_distance<Dim>(target_points, r, source_points, nb[k]) > row_radius * row_radius)
+                continue;
               centroid += state.virtual_.position_of(nb[k]);
               ++in_support;
             }
@@ -96,7 +98,7 @@ struct FullStep {
             if (widen_motion) {  // the Shepard value belongs to the stencil's centroid, dx/2 inside
               double h_wide = h;
               StencilStatus wide_status;
-              if (widen(state, kernel, r, source_points, source.volume, scratch, h_wide, wide_status)) {
+              if (widen(state, kernel, r, target.position_of(r), source_points, source.volume, scratch, h_wide, wide_status)) {
                 half_velocity = Eval::evaluate(source, scratch.wide_row, w, scratch.gathered).velocity;
                 ++counts.widened;
               }
@@ -130,15 +132,12 @@ struct FullStep {
   /// belong to scratch.wide_row, h_row is the length used and status that stencil's;
   /// otherwise the row's own weights are computed again and false returned.
   template <class Kernel>
-  static bool widen(const SolverState<Dim>& state, const Kernel& kernel, std::size_t r,
+  static bool widen(const SolverState<Dim>& state, const Kernel& kernel, std::size_t r, const Vec& x_r,
                     const PointsView<Dim>& source_points, const double* source_volume, StepScratch& scratch,
                     double& h_row, StencilStatus& status) {
     const std::int32_t b = state.boundary.slot[r];
     const NeighborList& own = state.lists.real_from_virtual;
     const double h = state.settings.smoothing_length;
-    const auto x = points_of<Dim>(state.real);
-    Vec x_r;
-    for (int d = 0; d < Dim; ++d) x_r[d] = x.coordinate[d][r];
     std::vector<std::uint32_t>& row = scratch.wide_row;
     if (b >= 0 && state.lists.real_from_real.query_count() > r) {
       row.assign(own.neighbors(r).begin(), own.neighbors(r).end());
