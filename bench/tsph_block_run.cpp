@@ -52,6 +52,18 @@ struct Options {
   std::exit(2);
 }
 
+/// VmHWM of /proc/self/status in bytes (0 where it cannot be read).
+double peak_resident_bytes() {
+  std::FILE* status = std::fopen("/proc/self/status", "r");
+  if (!status) return 0.0;
+  char line[256];
+  double kib = 0.0;
+  while (std::fgets(line, sizeof line, status))
+    if (std::strncmp(line, "VmHWM:", 6) == 0) kib = std::strtod(line + 6, nullptr);
+  std::fclose(status);
+  return kib * 1024.0;
+}
+
 /// The timed part, one function so that callgrind can count it alone
 /// (--toggle-collect='*run_steps*', tools/check_timing.py).
 template <int Dim>
@@ -108,6 +120,10 @@ int run(const Options& o) {
               setup_s, o.steps, steps_s,
               o.steps > 0 ? 1e-6 * static_cast<double>(real_count) * o.steps / steps_s : 0.0,
               estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists, skin), solver.kinetic_energy());
+  // Peak resident memory of the whole process (VmHWM), setup included.
+  if (const double peak = peak_resident_bytes(); peak > 0.0)
+    std::printf("peak RSS %.3f GiB, %.0f B per real particle\n", peak / 1073741824.0,
+                peak / static_cast<double>(real_count));
   return 0;
 }
 

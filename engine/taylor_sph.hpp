@@ -42,60 +42,27 @@ class TaylorSph {
   static constexpr int stress_count = stress_component_count<Dim>;
 
   TaylorSph(ParticleSet<Dim> real, ParticleSet<Dim> virtual_particles, Material<Dim> material,
-            SolverSettings<Dim> settings, std::vector<BoundaryCondition<Dim>> boundaries)
-      : state_(std::move(real), std::move(virtual_particles), std::move(material), std::move(settings),
-               std::move(boundaries)) {
-    NeighborLists<Dim>::rebuild(state_);
-  }
+            SolverSettings<Dim> settings, std::vector<BoundaryCondition<Dim>> boundaries);
 
   /// Advances the solution by dt: seed eqs. (3) and (4), the boundary conditions and the
   /// stabilisations (advance_fields), the stability check, then the motion and the
   /// neighbour lists (advance_positions).
-  void step(double dt) {
-    if (!(dt > 0.0) || !std::isfinite(dt))
-      throw std::invalid_argument("solver: time step dt = " + std::to_string(dt) + " must be positive");
-    advance_fields(dt);
-    check_stability(dt);  // a diverged state is reported before it moves any particle
-    advance_positions(dt);
-    state_.time += dt;
-    ++state_.counters.steps;
-  }
+  void step(double dt);
 
   /// The stages of step() up to the stability check, in the seed's order (the step map,
   /// engine/analysis/step_map.hpp, runs this and advance_positions).
-  void advance_fields(double dt) {
-    const SolverSettings<Dim>& settings = state_.settings;
-    const double t_new = state_.time + dt;
-    visit_stages([&](const auto& kernel, const auto& model) {
-      CharacteristicBoundary<Dim>::gradients_at_n(state_, kernel);  // grad U^n at the boundary
-      HalfStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (3): real -> virtual
-      Motion<Dim>::first_half(state_, dt);                            // to x^{n+1/2} (or u += dt/2 v^n)
-      // The weak form's weights in the configuration the full step evaluates in (the
-      // midpoint in updated Lagrangian): its forces exert no torque about it, and the
-      // spin is kept (docs/notes/2026-11-26-rotation-drift.md; at x^n it grew by
-      // omega^2 dt^2 / 2 per step).
-      if (settings.conservative_momentum) momentum_.store_weights(state_, kernel);
-      FullStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (4): virtual -> real
-      CharacteristicBoundary<Dim>::apply(state_, model, dt, t_new);   // boundary state at n+1
-      if (settings.conservative_momentum) momentum_.apply(state_, dt, t_new);
-      if (settings.hourglass_stiffness > 0.0) hourglass_stiffness_.apply(state_, kernel, dt);
-      if (settings.hourglass_coefficient > 0.0) surface_filter_.apply(state_, kernel);
-    });
-  }
+  void advance_fields(double dt);
+
   /// NaN/Inf in either set, an unphysical state (density, stress, speed, a particle
   /// that left the body) or a runaway of the energy: throws SolutionDiverged.
-  void check_stability(double dt) { monitor_.check(state_, dt); }
+  void check_stability(double dt);
   /// Displacements, and in updated Lagrangian the positions and the neighbour lists.
-  void advance_positions(double dt) { Motion<Dim>::second_half(state_, dt); }
+  void advance_positions(double dt);
 
   /// The stages one at a time (benchmarks): seed eq. (3), seed eq. (4), the lists.
-  void half_step(double dt) {
-    visit_stages([&](const auto& kernel, const auto& model) { HalfStep<Dim>::apply(state_, kernel, model, dt); });
-  }
-  void full_step(double dt) {
-    visit_stages([&](const auto& kernel, const auto& model) { FullStep<Dim>::apply(state_, kernel, model, dt); });
-  }
-  void rebuild_neighbors() { NeighborLists<Dim>::rebuild(state_); }
+  void half_step(double dt);
+  void full_step(double dt);
+  void rebuild_neighbors();
 
   /// The whole state, for the stages run from outside (the step map sets the real
   /// particles' fields before each step).
@@ -137,18 +104,12 @@ class TaylorSph {
   /// run goes on as it would have, up to the order of sums (round-off).
   /// SolverSettings::spatial_order does this itself when the order decays.
   void permute_particles(const std::vector<std::uint32_t>& real_order,
-                         const std::vector<std::uint32_t>& virtual_order) {
-    // Both checked before anything moves (ParticleSet::permute checks again).
-    require_permutation(real_order, state_.real.size(), "solver: permute_particles: the real order");
-    require_permutation(virtual_order, state_.virtual_.size(), "solver: permute_particles: the virtual order");
-    NeighborLists<Dim>::permute(state_, real_order, virtual_order);
-    NeighborLists<Dim>::build(state_);
-    state_.lists.sorted_spread = -1.0;  // the sorted order's spread, measured again at the next rebuild
-  }
+                         const std::vector<std::uint32_t>& virtual_order);
+
 
   /// SolverSettings::free_edge_uniaxial: the real particles that take the uniaxial stress
   /// of a free edge (boundary/free_edge.hpp). Empty with the option off.
-  std::vector<std::uint32_t> free_edge_particles() const { return FreeEdge<Dim>::particles(state_); }
+  std::vector<std::uint32_t> free_edge_particles() const;
 
   /// Kinetic energy sum_I m_I |v_I|^2 / 2 of the real particles.
   double kinetic_energy() const {
@@ -196,5 +157,91 @@ class TaylorSph {
   SurfaceHourglassFilter<Dim> surface_filter_;
   StabilityMonitor<Dim> monitor_;
 };
+
+// The member functions that run the stages are defined out of the class, so that they are
+// not inline: engine/taylor_sph.cpp instantiates TaylorSph<1>, <2> and <3> once, and every
+// other translation unit links to those (extern template below) instead of compiling the
+// stages again (about 60 s of -O3 each; docs/notes/2026-11-26-build-time.md).
+template <int Dim>
+TaylorSph<Dim>::TaylorSph(ParticleSet<Dim> real, ParticleSet<Dim> virtual_particles, Material<Dim> material,
+                          SolverSettings<Dim> settings, std::vector<BoundaryCondition<Dim>> boundaries)
+    : state_(std::move(real), std::move(virtual_particles), std::move(material), std::move(settings),
+             std::move(boundaries)) {
+  NeighborLists<Dim>::rebuild(state_);
+}
+template <int Dim>
+void TaylorSph<Dim>::step(double dt) {
+  if (!(dt > 0.0) || !std::isfinite(dt))
+    throw std::invalid_argument("solver: time step dt = " + std::to_string(dt) + " must be positive");
+  advance_fields(dt);
+  check_stability(dt);  // a diverged state is reported before it moves any particle
+  advance_positions(dt);
+  state_.time += dt;
+  ++state_.counters.steps;
+}
+
+template <int Dim>
+void TaylorSph<Dim>::advance_fields(double dt) {
+  const SolverSettings<Dim>& settings = state_.settings;
+  const double t_new = state_.time + dt;
+  visit_stages([&](const auto& kernel, const auto& model) {
+    CharacteristicBoundary<Dim>::gradients_at_n(state_, kernel);  // grad U^n at the boundary
+    HalfStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (3): real -> virtual
+    Motion<Dim>::first_half(state_, dt);                            // to x^{n+1/2} (or u += dt/2 v^n)
+    // The weak form's weights in the configuration the full step evaluates in (the
+    // midpoint in updated Lagrangian): its forces exert no torque about it, and the
+    // spin is kept (docs/notes/2026-11-26-rotation-drift.md; at x^n it grew by
+    // omega^2 dt^2 / 2 per step).
+    if (settings.conservative_momentum) momentum_.store_weights(state_, kernel);
+    FullStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (4): virtual -> real
+    CharacteristicBoundary<Dim>::apply(state_, model, dt, t_new);   // boundary state at n+1
+    if (settings.conservative_momentum) momentum_.apply(state_, dt, t_new);
+    if (settings.hourglass_stiffness > 0.0) hourglass_stiffness_.apply(state_, kernel, dt);
+    if (settings.hourglass_coefficient > 0.0) surface_filter_.apply(state_, kernel);
+  });
+}
+
+template <int Dim>
+void TaylorSph<Dim>::check_stability(double dt) {
+  monitor_.check(state_, dt);
+}
+
+template <int Dim>
+void TaylorSph<Dim>::advance_positions(double dt) {
+  Motion<Dim>::second_half(state_, dt);
+}
+
+template <int Dim>
+void TaylorSph<Dim>::half_step(double dt) {
+  visit_stages([&](const auto& kernel, const auto& model) { HalfStep<Dim>::apply(state_, kernel, model, dt); });
+}
+template <int Dim>
+void TaylorSph<Dim>::full_step(double dt) {
+  visit_stages([&](const auto& kernel, const auto& model) { FullStep<Dim>::apply(state_, kernel, model, dt); });
+}
+template <int Dim>
+void TaylorSph<Dim>::rebuild_neighbors() {
+  NeighborLists<Dim>::rebuild(state_);
+}
+
+template <int Dim>
+void TaylorSph<Dim>::permute_particles(const std::vector<std::uint32_t>& real_order,
+                                      const std::vector<std::uint32_t>& virtual_order) {
+  // Both checked before anything moves (ParticleSet::permute checks again).
+  require_permutation(real_order, state_.real.size(), "solver: permute_particles: the real order");
+  require_permutation(virtual_order, state_.virtual_.size(), "solver: permute_particles: the virtual order");
+  NeighborLists<Dim>::permute(state_, real_order, virtual_order);
+  NeighborLists<Dim>::build(state_);
+  state_.lists.sorted_spread = -1.0;  // the sorted order's spread, measured again at the next rebuild
+}
+
+template <int Dim>
+std::vector<std::uint32_t> TaylorSph<Dim>::free_edge_particles() const {
+  return FreeEdge<Dim>::particles(state_);
+}
+
+extern template class TaylorSph<1>;
+extern template class TaylorSph<2>;
+extern template class TaylorSph<3>;
 
 }  // namespace tsph

@@ -223,7 +223,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
       // v = value + G x along the exact affine motion (engine/affine_motion.hpp).
       Matrix<Dim> g;
       for (int r = 0; r < Dim; ++r)
-        for (int k = 0; k < Dim; ++k) g(r, k) = s.velocity_gradient[static_cast<std::size_t>(r * Dim + k)];
+        for (int col = 0; col < Dim; ++col) g(r, col) = s.velocity_gradient[static_cast<std::size_t>(r * Dim + col)];
       const AffineMotion<Dim> motion(g, to_vector<Dim>(s.value));
       // A time function scales `value` only, which is zero when one is given (case_file.cpp).
       b.conditions.push_back(BoundaryCondition<Dim>::velocity_field(
