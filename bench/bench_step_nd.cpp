@@ -13,13 +13,10 @@
 //           (SolverSettings::neighbor_skin; counter steps_per_build).
 // Arguments: particles, threads.
 #include "bench/block_case.hpp"
+#include "bench/thread_axis.hpp"
 #include "engine/parallel.hpp"
 
 #include <benchmark/benchmark.h>
-
-#include <cstdint>
-#include <cstdlib>
-#include <vector>
 
 namespace {
 
@@ -64,28 +61,15 @@ void BM_Stage(benchmark::State& state) {
   set_thread_count(before);
 }
 
-/// The thread axis: 1 and 2 (the 2-core machines the figures are quoted on), then the
-/// powers of two up to TSPH_BENCH_MAX_THREADS when it is set (scaling on larger nodes,
-/// docs/performance.md).
-std::vector<std::int64_t> thread_counts() {
-  std::vector<std::int64_t> counts{1, 2};
-  if (const char* text = std::getenv("TSPH_BENCH_MAX_THREADS")) {
-    const long most = std::strtol(text, nullptr, 10);
-    for (std::int64_t t = 4; t <= most; t *= 2) counts.push_back(t);
-    if (most > 2 && counts.back() != most) counts.push_back(most);
-  }
-  return counts;
-}
-
 void sizes_2d(benchmark::internal::Benchmark* b) {
   b->ArgNames({"particles", "threads"})
-      ->ArgsProduct({{10'000, 100'000, 1'000'000, 10'000'000}, thread_counts()})
+      ->ArgsProduct({{10'000, 100'000, 1'000'000, 10'000'000}, bench::thread_axis()})
       ->UseRealTime()
       ->Unit(benchmark::kMillisecond);
 }
 void sizes_3d(benchmark::internal::Benchmark* b) {
   b->ArgNames({"particles", "threads"})
-      ->ArgsProduct({{10'000, 100'000, 1'000'000}, thread_counts()})
+      ->ArgsProduct({{10'000, 100'000, 1'000'000}, bench::thread_axis()})
       ->UseRealTime()
       ->Unit(benchmark::kMillisecond);
 }

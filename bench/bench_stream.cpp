@@ -1,7 +1,9 @@
 // Memory bandwidth of this machine, STREAM-like (McCalpin's triad a = b + s c over
 // arrays far larger than the caches), for the roofline estimates of bench/RESULTS.md.
 // Bytes counted as STREAM does: 24 per element (read b and c, write a; the
-// write-allocate read of a is not counted). 1 and 2 threads, through parallel_for.
+// write-allocate read of a is not counted). 1 and 2 threads (more: bench/thread_axis.hpp),
+// through parallel_for.
+#include "bench/thread_axis.hpp"
 #include "engine/parallel.hpp"
 
 #include <benchmark/benchmark.h>
@@ -30,7 +32,7 @@ void BM_Triad(benchmark::State& state) {
 }
 BENCHMARK(BM_Triad)
     ->ArgNames({"elements", "threads"})
-    ->ArgsProduct({{1 << 24}, {1, 2}})
+    ->ArgsProduct({{1 << 24}, tsph::bench::thread_axis()})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 

@@ -3,11 +3,11 @@
 //
 // A `Pack` is kLanes = 4 doubles (GCC/clang vector extension): arithmetic and comparisons
 // act lane by lane, compiled to two SSE2 instructions per operation in the baseline build
-// and to one AVX2 instruction inside a function compiled with `[[gnu::target("avx2")]]`.
-// The AVX2 build does not enable FMA, so both compile to the same roundings lane by lane
-// and the two paths give bitwise the same results (tests/test_kernels.cpp checks it on
-// stencils); lanes are summed in one fixed order, so neither the thread count nor the
-// path changes a result.
+// and to one AVX2 instruction inside a function compiled with
+// `[[gnu::target("avx2,fma")]]`. The AVX2 build contracts a * b + c into fused
+// multiply-adds (-5 % instructions in 2D, -8 % in 3D; bench/RESULTS.md, "FMA"), so the two
+// paths agree to round-off, not bitwise (tests/test_corrected_operators.cpp checks 1e-13);
+// lanes are summed in one fixed order, so the thread count never changes a result.
 //
 // Loops over a neighbour row work on buffers padded to a multiple of kLanes with zeros
 // (volume 0, offset 0, weight 0), whose contributions to every sum are exactly zero.
@@ -107,7 +107,7 @@ template <std::size_t N>
 
 /// Marks the AVX2 build of a packed loop (x86-64 only; elsewhere it is the baseline).
 #if defined(__x86_64__) || defined(__i386__)
-#define TSPH_TARGET_AVX2 [[gnu::target("avx2")]]
+#define TSPH_TARGET_AVX2 [[gnu::target("avx2,fma")]]
 #else
 #define TSPH_TARGET_AVX2
 #endif
@@ -117,7 +117,7 @@ enum class SimdPath { sse2, avx2 };
 
 inline std::string_view to_string(SimdPath path) { return path == SimdPath::avx2 ? "avx2" : "sse2"; }
 
-/// AVX2 where the CPU has it, unless the environment variable TSPH_SIMD=sse2 asks for the
+/// AVX2 (with FMA) where the CPU has it, unless the environment variable TSPH_SIMD=sse2 asks for the
 /// baseline (to measure one against the other on the same binary). Decided once.
 inline SimdPath simd_path() {
   static const SimdPath path = [] {
@@ -125,7 +125,7 @@ inline SimdPath simd_path() {
     if (forced != nullptr && std::string_view(forced) == "sse2") return SimdPath::sse2;
 #if defined(__x86_64__) || defined(__i386__)
     __builtin_cpu_init();
-    if (__builtin_cpu_supports("avx2")) return SimdPath::avx2;
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return SimdPath::avx2;
 #endif
     return SimdPath::sse2;
   }();

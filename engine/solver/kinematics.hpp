@@ -9,7 +9,9 @@
 #include "engine/solver/neighbor_lists.hpp"
 #include "engine/solver/state.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace tsph {
 
@@ -85,20 +87,30 @@ struct Motion {
   /// and those whose stencil was empty, take the trapezoid, dt/2 v^{n+1}. The skin's
   /// path bound gets the largest move made here.
   static void place_real_at_next_position(SolverState<Dim>& state, double dt) {
+    // In parallel blocks (it was the step's one serial pass over the particles: issue 17,
+    // docs/performance.md), each keeping its largest move, combined in block order.
+    std::vector<double> block_largest(static_cast<std::size_t>(std::max(1, thread_count())), 0.0);
+    const std::size_t blocks =
+        parallel_blocks(state.real.size(), [&](std::size_t block, std::size_t begin, std::size_t end) {
+          double largest = 0.0;
+          for (std::size_t i = begin; i < end; ++i) {
+            bool trapezoid = !std::isfinite(state.next_position[0][i]);
+            if (const std::int32_t b = state.boundary.slot[i]; b >= 0 && !trapezoid)
+              trapezoid = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::velocity;
+            double moved = 0.0;
+            for (int d = 0; d < Dim; ++d) {
+              const double next = trapezoid ? state.real.position[d][i] + 0.5 * dt * state.real.velocity[d][i]
+                                            : state.next_position[d][i];
+              moved += (next - state.real.position[d][i]) * (next - state.real.position[d][i]);
+              state.real.position[d][i] = next;
+            }
+            largest = moved > largest ? moved : largest;
+          }
+          block_largest[block] = largest;
+        });
     double largest = 0.0;
-    for (std::size_t i = 0; i < state.real.size(); ++i) {
-      bool trapezoid = !std::isfinite(state.next_position[0][i]);
-      if (const std::int32_t b = state.boundary.slot[i]; b >= 0 && !trapezoid)
-        trapezoid = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::velocity;
-      double moved = 0.0;
-      for (int d = 0; d < Dim; ++d) {
-        const double next = trapezoid ? state.real.position[d][i] + 0.5 * dt * state.real.velocity[d][i]
-                                      : state.next_position[d][i];
-        moved += (next - state.real.position[d][i]) * (next - state.real.position[d][i]);
-        state.real.position[d][i] = next;
-      }
-      largest = moved > largest ? moved : largest;
-    }
+    for (std::size_t block = 0; block < blocks; ++block)
+      largest = block_largest[block] > largest ? block_largest[block] : largest;
     state.lists.real_move_bound = std::sqrt(largest);
   }
 
