@@ -161,7 +161,7 @@ class TaylorSph {
 // The member functions that run the stages are defined out of the class, so that they are
 // not inline: engine/taylor_sph.cpp instantiates TaylorSph<1>, <2> and <3> once, and every
 // other translation unit links to those (extern template below) instead of compiling the
-// stages again (about 60 s of -O3 each; docs/notes/2026-11-26-build-time.md).
+// stages again (about 60 s of -O3 each; docs/architecture.md, "Build").
 template <int Dim>
 TaylorSph<Dim>::TaylorSph(ParticleSet<Dim> real, ParticleSet<Dim> virtual_particles, Material<Dim> material,
                           SolverSettings<Dim> settings, std::vector<BoundaryCondition<Dim>> boundaries)

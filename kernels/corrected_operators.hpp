@@ -151,15 +151,61 @@ Eigen::Matrix<double, N, N> symmetric_pseudo_inverse(const Eigen::Matrix<double,
   return solver.eigenvectors() * inverted.asDiagonal() * solver.eigenvectors().transpose();
 }
 
+/// Inverse of a small general matrix (the correction matrix of a reference-configuration
+/// stencil, sum_J V_J grad_X W_IJ (x) (x_J - x_I), which is not symmetric), with `ok`
+/// false when it is singular or ill-conditioned: |det| against the product of its row
+/// norms (Hadamard's inequality: 1 for orthogonal rows, round-off for a rank-deficient
+/// matrix) and the infinity-norm condition number, the thresholds of checked_inverse.
+template <int N>
+Eigen::Matrix<double, N, N> checked_general_inverse(const Eigen::Matrix<double, N, N>& m, bool& ok) {
+  ok = false;
+  const double norm = m.cwiseAbs().rowwise().sum().maxCoeff();
+  if (!(norm > 0.0) || !std::isfinite(norm)) return Eigen::Matrix<double, N, N>::Zero();
+  const double row_norms = m.rowwise().norm().prod();
+  const double det = m.determinant();
+  if (!(row_norms > 0.0) || !(std::abs(det) > kMinHadamardRatio * row_norms)) return Eigen::Matrix<double, N, N>::Zero();
+  const Eigen::Matrix<double, N, N> inverse = m.inverse();
+  const double condition = norm * inverse.cwiseAbs().rowwise().sum().maxCoeff();
+  ok = std::isfinite(condition) && condition < kMaxConditionNumber;
+  return inverse;
+}
+
+/// Moore-Penrose pseudo-inverse of a small general matrix, M+ = (M^T M)+ M^T with the
+/// symmetric pseudo-inverse above (its eigenvalues, the squared singular values, below
+/// the relative threshold dropped): the fallback of checked_general_inverse.
+template <int N>
+Eigen::Matrix<double, N, N> general_pseudo_inverse(const Eigen::Matrix<double, N, N>& m) {
+  const Eigen::Matrix<double, N, N> normal = m.transpose() * m;
+  return symmetric_pseudo_inverse<N>(normal) * m.transpose();
+}
+
+/// The reference configuration of a stencil (SolverSettings::kernel_configuration =
+/// reference): the query's and the sources' initial positions X. The kernel and its raw
+/// gradient are evaluated at X_J - X_I (the stencil is the one of the undeformed body,
+/// whatever the deformation), the corrections at the current offsets x_J - x_I, so that
+/// the weights stay exact for linear fields of the current configuration:
+///   gradient  V_J Gn_IJ = M^-1 g_J,  g_J = V_J grad_X W(X_I - X_J),  M = sum_J g_J (x) (x_J - x_I),
+///   so that sum_J (a . (x_J - x_I)) M^-1 g_J = M^-1 M a = a for every a (M is not
+///   symmetric: the pseudo-inverse fallback is the general one);
+///   interpolation: the moments of [1; x_J - x_I] weighted by W(|X_J - X_I|).
+template <int Dim>
+struct ReferenceStencil {
+  Eigen::Matrix<double, Dim, 1> query;  ///< X_I
+  PointsView<Dim> source;               ///< X_J
+};
+
 /// The body of compute_stencil, compiled once per instruction set (below).
-template <int Dim, class Kernel>
+template <int Dim, class Kernel, bool Reference = false>
 [[gnu::always_inline]] inline StencilStatus compute_stencil_in_packs(
     double h, const Eigen::Matrix<double, Dim, 1>& x_query, const PointsView<Dim>& source,
     const double* source_volume, std::span<const std::uint32_t> neighbors,
-    InterpolationKind interpolation, StencilWeights<Dim>& weights) {
+    InterpolationKind interpolation, StencilWeights<Dim>& weights,
+    const ReferenceStencil<Dim>* reference = nullptr) {
   using Mat = Eigen::Matrix<double, Dim, Dim>;
   using Moments = Eigen::Matrix<double, Dim + 1, Dim + 1>;
   constexpr int pairs = Dim * (Dim + 1) / 2;  // upper triangle (a <= b)
+  // The correction matrix: its upper triangle (symmetric), or all of it (Reference).
+  constexpr int correction_entries = Reference ? Dim * Dim : pairs;
   StencilStatus status;
   const std::size_t n = neighbors.size();
   weights.resize(n);
@@ -180,6 +226,9 @@ template <int Dim, class Kernel>
   const std::uint32_t* const index = neighbors.data();
   std::array<double, Dim> x_i;  // a local copy: the stores below cannot alias it
   for (int d = 0; d < Dim; ++d) x_i[d] = x_query[d];
+  std::array<double, Dim> reference_i{};
+  if constexpr (Reference)
+    for (int d = 0; d < Dim; ++d) reference_i[d] = reference->query[d];
   double* const value = weights.value.data();
   std::array<double*, Dim> offset, gradient;
   for (int d = 0; d < Dim; ++d) offset[d] = weights.offset[d].data(), gradient[d] = weights.gradient[d].data();
@@ -187,7 +236,7 @@ template <int Dim, class Kernel>
   // [0] kernel sum, [1, 1 + Dim) first moments, then the upper triangles of the second
   // moments and of the correction matrix.
   constexpr int first_at = 1, second_at = 1 + Dim, correction_at = 1 + Dim + pairs;
-  std::array<Pack, 1 + Dim + 2 * pairs> sum{};
+  std::array<Pack, 1 + Dim + pairs + correction_entries> sum{};
   for (std::size_t k = 0; k < padded; k += kLanes) {
     std::array<std::uint32_t, kLanes> j;
     Pack volume;
@@ -204,13 +253,18 @@ template <int Dim, class Kernel>
       o[d] = load_indexed_pack(source.coordinate[d], j) - x_i[d];
       store_pack(offset[d] + k, o[d]);
     }
-    Pack r2 = o[0] * o[0];
-    for (int d = 1; d < Dim; ++d) r2 += o[d] * o[d];
+    // The kernel's argument: the current offsets, or the reference ones (Reference).
+    std::array<Pack, Dim> kernel_offset = o;
+    if constexpr (Reference)
+      for (int d = 0; d < Dim; ++d)
+        kernel_offset[d] = load_indexed_pack(reference->source.coordinate[d], j) - reference_i[d];
+    Pack r2 = kernel_offset[0] * kernel_offset[0];
+    for (int d = 1; d < Dim; ++d) r2 += kernel_offset[d] * kernel_offset[d];
     const Pack q = square_root(r2) * inverse_h;
     const Pack w = volume * (value_factor * Kernel::shape(q));
     const Pack s = volume * (-slope_factor * Kernel::slope_over_q(q));
     store_pack(value + k, w);
-    for (int d = 0; d < Dim; ++d) store_pack(gradient[d] + k, s * o[d]);
+    for (int d = 0; d < Dim; ++d) store_pack(gradient[d] + k, s * kernel_offset[d]);
     sum[0] += w;
     int ab = 0;
     for (int a = 0; a < Dim; ++a) {
@@ -218,8 +272,10 @@ template <int Dim, class Kernel>
       for (int b = a; b < Dim; ++b, ++ab) {
         const Pack p = o[a] * o[b];
         sum[second_at + ab] += w * p;
-        sum[correction_at + ab] += s * p;
+        if constexpr (!Reference) sum[correction_at + ab] += s * p;
       }
+      if constexpr (Reference)  // M_ab = sum_J s_J O_a o_b (O: reference, o: current offset)
+        for (int b = 0; b < Dim; ++b) sum[correction_at + a * Dim + b] += (s * kernel_offset[a]) * o[b];
     }
   }
   const auto total = lane_sums(sum);
@@ -231,8 +287,10 @@ template <int Dim, class Kernel>
     moments(0, a + 1) = moments(a + 1, 0) = total[first_at + a] * inverse_h;
     for (int b = a; b < Dim; ++b, ++ab) {
       moments(a + 1, b + 1) = moments(b + 1, a + 1) = total[second_at + ab] * (inverse_h * inverse_h);
-      correction_matrix(a, b) = correction_matrix(b, a) = total[correction_at + ab];
+      if constexpr (!Reference) correction_matrix(a, b) = correction_matrix(b, a) = total[correction_at + ab];
     }
+    if constexpr (Reference)
+      for (int b = 0; b < Dim; ++b) correction_matrix(a, b) = total[correction_at + a * Dim + b];
   }
 
   // Interpolation weights: scale factors of the row, applied below.
@@ -262,10 +320,19 @@ template <int Dim, class Kernel>
 
   // Gradient weights: L_I grad_I W_IJ.
   bool inverse_ok = false;
-  Mat inverse = checked_inverse<Dim>(correction_matrix, inverse_ok);
-  if (!inverse_ok) {
-    inverse = symmetric_pseudo_inverse<Dim>(correction_matrix);
-    status.gradient_fallback = n > 0;
+  Mat inverse;
+  if constexpr (Reference) {
+    inverse = checked_general_inverse<Dim>(correction_matrix, inverse_ok);
+    if (!inverse_ok) {
+      inverse = general_pseudo_inverse<Dim>(correction_matrix);
+      status.gradient_fallback = n > 0;
+    }
+  } else {
+    inverse = checked_inverse<Dim>(correction_matrix, inverse_ok);
+    if (!inverse_ok) {
+      inverse = symmetric_pseudo_inverse<Dim>(correction_matrix);
+      status.gradient_fallback = n > 0;
+    }
   }
   // One pass over the row for both (they were two).
   for (std::size_t k = 0; k < padded; k += kLanes) {
@@ -289,39 +356,48 @@ template <int Dim, class Kernel>
   return status;
 }
 
-template <int Dim, class Kernel>
+template <int Dim, class Kernel, bool Reference>
 StencilStatus compute_stencil_sse2(double h, const Eigen::Matrix<double, Dim, 1>& x_query,
                                    const PointsView<Dim>& source, const double* source_volume,
                                    std::span<const std::uint32_t> neighbors,
-                                   InterpolationKind interpolation, StencilWeights<Dim>& weights) {
-  return compute_stencil_in_packs<Dim, Kernel>(h, x_query, source, source_volume, neighbors,
-                                               interpolation, weights);
+                                   InterpolationKind interpolation, StencilWeights<Dim>& weights,
+                                   const ReferenceStencil<Dim>* reference) {
+  return compute_stencil_in_packs<Dim, Kernel, Reference>(h, x_query, source, source_volume, neighbors,
+                                                          interpolation, weights, reference);
 }
 
-template <int Dim, class Kernel>
+template <int Dim, class Kernel, bool Reference>
 TSPH_TARGET_AVX2 StencilStatus compute_stencil_avx2(
     double h, const Eigen::Matrix<double, Dim, 1>& x_query, const PointsView<Dim>& source,
     const double* source_volume, std::span<const std::uint32_t> neighbors,
-    InterpolationKind interpolation, StencilWeights<Dim>& weights) {
-  return compute_stencil_in_packs<Dim, Kernel>(h, x_query, source, source_volume, neighbors,
-                                               interpolation, weights);
+    InterpolationKind interpolation, StencilWeights<Dim>& weights, const ReferenceStencil<Dim>* reference) {
+  return compute_stencil_in_packs<Dim, Kernel, Reference>(h, x_query, source, source_volume, neighbors,
+                                                          interpolation, weights, reference);
 }
 
 /// Computes the interpolation and gradient weights of query point `x_query` over its
 /// neighbour row. `source_volume[J]` is V_J = m_J / rho_J. Runs the AVX2 build where the
-/// CPU has it (simd_path(); bitwise the same results as the SSE2 build), unless `path`
-/// names one.
+/// CPU has it (simd_path(); the same results as the SSE2 build to round-off), unless
+/// `path` names one. With `reference` the kernel is evaluated in the reference
+/// configuration (ReferenceStencil).
 template <int Dim, class Kernel>
 StencilStatus compute_stencil(const Kernel&, double h, const Eigen::Matrix<double, Dim, 1>& x_query,
                               const PointsView<Dim>& source, const double* source_volume,
                               std::span<const std::uint32_t> neighbors,
                               InterpolationKind interpolation, StencilWeights<Dim>& weights,
-                              SimdPath path = simd_path()) {
+                              SimdPath path = simd_path(), const ReferenceStencil<Dim>* reference = nullptr) {
+  if (reference != nullptr) {
+    if (path == SimdPath::avx2)
+      return compute_stencil_avx2<Dim, Kernel, true>(h, x_query, source, source_volume, neighbors,
+                                                     interpolation, weights, reference);
+    return compute_stencil_sse2<Dim, Kernel, true>(h, x_query, source, source_volume, neighbors,
+                                                   interpolation, weights, reference);
+  }
   if (path == SimdPath::avx2)
-    return compute_stencil_avx2<Dim, Kernel>(h, x_query, source, source_volume, neighbors,
-                                             interpolation, weights);
-  return compute_stencil_sse2<Dim, Kernel>(h, x_query, source, source_volume, neighbors,
-                                           interpolation, weights);
+    return compute_stencil_avx2<Dim, Kernel, false>(h, x_query, source, source_volume, neighbors,
+                                                    interpolation, weights, nullptr);
+  return compute_stencil_sse2<Dim, Kernel, false>(h, x_query, source, source_volume, neighbors,
+                                                  interpolation, weights, nullptr);
 }
 
 }  // namespace tsph

@@ -315,6 +315,101 @@ TYPED_TEST(CorrectedOperatorTest, LinearFieldsAreExactOnPerturbedLattices) {
     }
 }
 
+/// The affine map x = F X + c of the reference-stencil test: 1D a stretch by 2.5; 2D and
+/// 3D a stretch (1.5 along x, 0.7 along z), a simple shear gamma = 3 and a rotation by
+/// 90 degrees about z, so that no entry of F is near the identity's.
+template <int Dim>
+Mat<Dim> large_deformation() {
+  if constexpr (Dim == 1) {
+    return Mat<Dim>::Constant(2.5);
+  } else {
+    Mat<Dim> stretch = Mat<Dim>::Identity(), shear = Mat<Dim>::Identity(), rotation = Mat<Dim>::Identity();
+    stretch(0, 0) = 1.5;
+    if constexpr (Dim == 3) stretch(2, 2) = 0.7;
+    shear(0, 1) = 3.0;
+    rotation(0, 0) = 0.0, rotation(0, 1) = -1.0, rotation(1, 0) = 1.0, rotation(1, 1) = 0.0;
+    return rotation * shear * stretch;
+  }
+}
+
+// The reference configuration of a stencil (SolverSettings::kernel_configuration =
+// reference; kernels/corrected_operators.hpp, ReferenceStencil): on the perturbed lattice
+// deformed by x = F X + c (a 90 degree rotation, a shear gamma = 3 and stretches), rows
+// searched at X, every virtual particle's stencil over the real set
+//  * has the kernel values of the undeformed stencil (Shepard weights to 1e-14),
+//  * has gradient weights F^-T times the undeformed ones (1e-10 of their size), so it is
+//    exact for linear fields of the deformed body (1e-10), and
+//  * with `linear` interpolation reproduces linear fields of the deformed body (1e-10),
+// with no fallback. The current-configuration stencil of the same rows would also be
+// exact for linear fields, but its values differ by O(1) (the kernel sees the deformed
+// distances): checked too, so that a reference argument that is silently ignored fails.
+TYPED_TEST(CorrectedOperatorTest, ReferenceStencilKeepsTheUndeformedKernelAndIsExactWhenDeformed) {
+  constexpr int dim = TypeParam::value;
+  const LatticeBox<dim> box = test_box<dim>();
+  const auto real = perturbed(make_real_lattice(box, 2.0), box.spacing, 11 + dim);
+  const auto virtual_set = make_virtual_lattice(box, 2.0);
+  const Mat<dim> F = large_deformation<dim>();
+  const Mat<dim> inverse_transpose = F.inverse().transpose();
+  Vec<dim> c;
+  for (int d = 0; d < dim; ++d) c[d] = 0.3 - 0.1 * d;
+  auto deformed = [&](const ParticleSet<dim>& set) {
+    ParticleSet<dim> out = set;
+    for (std::size_t i = 0; i < set.size(); ++i) {
+      const Vec<dim> x = F * set.position_of(i) + c;
+      for (int d = 0; d < dim; ++d) out.position[d][i] = x[d];
+    }
+    return out;
+  };
+  const auto real_now = deformed(real), virtual_now = deformed(virtual_set);
+  const LinearField<dim> f;
+  for (KernelKind kind : kAllKernelKinds)
+    visit_kernel<dim>(kind, [&](const auto& kernel) {
+      SCOPED_TRACE(std::string(to_string(kind)));
+      const double h = 1.2 * box.spacing;
+      const NeighborList list =
+          brute_force_neighbors<dim>(points_of<dim>(virtual_set), points_of<dim>(real), kSupportFactor * h);
+      StencilWeights<dim> undeformed, shepard, linear, current;
+      double largest_value_change = 0.0;
+      for (std::size_t q = 0; q < virtual_set.size(); ++q) {
+        const auto row = list.neighbors(q);
+        const ReferenceStencil<dim> reference{virtual_set.position_of(q), points_of<dim>(real)};
+        const StencilStatus s0 = compute_stencil<dim>(kernel, h, virtual_set.position_of(q), points_of<dim>(real),
+                                                      real.volume.data(), row, InterpolationKind::shepard, undeformed);
+        const StencilStatus s1 = compute_stencil<dim>(kernel, h, virtual_now.position_of(q), points_of<dim>(real_now),
+                                                      real.volume.data(), row, InterpolationKind::shepard, shepard,
+                                                      simd_path(), &reference);
+        const StencilStatus s2 = compute_stencil<dim>(kernel, h, virtual_now.position_of(q), points_of<dim>(real_now),
+                                                      real.volume.data(), row, InterpolationKind::linear, linear,
+                                                      simd_path(), &reference);
+        compute_stencil<dim>(kernel, h, virtual_now.position_of(q), points_of<dim>(real_now), real.volume.data(), row,
+                             InterpolationKind::shepard, current);
+        ASSERT_FALSE(s0.gradient_fallback || s1.gradient_fallback || s2.gradient_fallback) << "query " << q;
+        ASSERT_FALSE(s2.interpolation_fallback) << "query " << q;
+        double value_scale = 0.0, gradient_scale = 0.0;
+        for (std::size_t k = 0; k < row.size(); ++k) {
+          value_scale = std::max(value_scale, std::abs(undeformed.value[k]));
+          gradient_scale = std::max(gradient_scale, (inverse_transpose * undeformed.gradient_of(k)).cwiseAbs().maxCoeff());
+        }
+        Vec<dim> gradient = Vec<dim>::Zero();
+        double interpolated = 0.0;
+        const Vec<dim> x_q = virtual_now.position_of(q);
+        for (std::size_t k = 0; k < row.size(); ++k) {
+          const Vec<dim> x_j = real_now.position_of(row[k]);
+          ASSERT_NEAR(shepard.value[k], undeformed.value[k], 1e-14 * value_scale) << "query " << q << ", neighbour " << k;
+          ASSERT_LE((shepard.gradient_of(k) - inverse_transpose * undeformed.gradient_of(k)).cwiseAbs().maxCoeff(),
+                    1e-10 * gradient_scale)
+              << "query " << q << ", neighbour " << k;
+          gradient += (f(x_j) - f(x_q)) * shepard.gradient_of(k);
+          interpolated += linear.value[k] * f(x_j);
+          largest_value_change = std::max(largest_value_change, std::abs(current.value[k] - undeformed.value[k]) / value_scale);
+        }
+        ASSERT_LE((gradient - f.b).cwiseAbs().maxCoeff(), 1e-10 * f.b.cwiseAbs().maxCoeff()) << "query " << q;
+        ASSERT_NEAR(interpolated, f(x_q), 1e-10 * std::abs(f(x_q))) << "query " << q;
+      }
+      EXPECT_GT(largest_value_change, 0.1);  // the current-configuration kernel does see the deformation
+    });
+}
+
 // The SSE2 and AVX2 builds of the packed stencil (kernels/simd.hpp) give the same weights
 // to round-off (the AVX2 build fuses multiply-adds; lanes are summed in one order): within
 // 1e-13 of the row's largest weight (and gradient weight), for every kernel and both

@@ -275,6 +275,9 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.deficient_stencils = c.deficient_stencils == "widen"          ? Deficient::widen
                                   : c.deficient_stencils == "widen_motion" ? Deficient::widen_motion
                                                                            : Deficient::keep;
+  b.settings.kernel_configuration = c.kernel_configuration == "reference"
+                                        ? SolverSettings<Dim>::KernelConfiguration::reference
+                                        : SolverSettings<Dim>::KernelConfiguration::current;
   b.settings.free_edge_uniaxial = c.free_edge_uniaxial;
   b.settings.neighbor_search = c.neighbor_search;
   b.settings.transpose_lists = c.transpose_lists;

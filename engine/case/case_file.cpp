@@ -250,6 +250,8 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.conservative_momentum = m.boolean("conservative_momentum").value_or(false);
     c.deficient_stencils =
         m.text("deficient_stencils", false, {"keep", "widen", "widen_motion"}).value_or("keep");
+    c.kernel_configuration =
+        m.text("kernel_configuration", false, {"current", "reference"}).value_or("current");
     c.free_edge_uniaxial = m.boolean("free_edge_uniaxial").value_or(false);
     if (c.free_edge_uniaxial && c.dimension != 3)
       context.invalid(m.get("free_edge_uniaxial", false, ""), m.path("free_edge_uniaxial"),

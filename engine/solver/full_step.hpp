@@ -42,12 +42,17 @@ struct FullStep {
     const Deficient deficient = state.positions_move() ? state.settings.deficient_stencils : Deficient::keep;
     if (material_motion)
       for (auto& component : state.next_position) component.assign(target.count, std::numeric_limits<double>::quiet_NaN());
+    const bool reference = state.reference_kernel();  // SolverSettings::kernel_configuration
     state.add(parallel_for_with_scratch<StepScratch, StencilCounts>(
         target.count, [&](std::size_t r, StepScratch& scratch, StencilCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
           std::span<const std::uint32_t> nb = state.lists.real_from_virtual.neighbors(r);
+          const ReferenceStencil<Dim> row_reference =
+              reference ? SolverState<Dim>::reference_stencil(state.initial_position_of(r), state.virtual_)
+                        : ReferenceStencil<Dim>{};
           StencilStatus status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
-                                                      source.volume, nb, state.settings.interpolation, w);
+                                                      source.volume, nb, state.settings.interpolation, w,
+                                                      simd_path(), reference ? &row_reference : nullptr);
           double h_row = h;  // the row's smoothing length: h, or that of a widened stencil
           // Interpolation alone deficient (an edge at alpha 0.6: two virtual neighbours
           // at one depth): the update keeps the row, the motion takes the widened one.

@@ -57,13 +57,18 @@ struct HalfStep {
     // kMaterialPointInterval-th step is enough; each costs ~15 % of a 2D step (callgrind).
     const bool to_material_point =
         state.positions_move() && state.counters.steps % kMaterialPointInterval == 0;
+    const bool reference = state.reference_kernel();  // SolverSettings::kernel_configuration
+    const PointsView<Dim> target_reference = reference ? initial_points_of<Dim>(state.virtual_) : PointsView<Dim>{};
     const HalfStepCounts shifts = parallel_for_with_scratch<StepScratch, HalfStepCounts>(
         target.count, [&](std::size_t q, StepScratch& scratch, HalfStepCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
           const auto nb = state.lists.virtual_from_real.neighbors(q);
+          const ReferenceStencil<Dim> row_reference =
+              reference ? SolverState<Dim>::reference_stencil(target_reference.point(q), state.real) : ReferenceStencil<Dim>{};
           const StencilStatus status =
               compute_stencil<Dim>(kernel, h, target.position_of(q), source_points,
-                                   source.volume, nb, state.settings.interpolation, w);
+                                   source.volume, nb, state.settings.interpolation, w, simd_path(),
+                                   reference ? &row_reference : nullptr);
           counts += status;
           if (status.no_neighbors) return;  // isolated: keeps its values (counted)
           const LocalState s = Eval::evaluate(source, nb, w, scratch.gathered);

@@ -33,8 +33,11 @@ struct NeighborLists {
   static void search(SolverState<Dim>& state) {
     const double radius = state.list_radius();
     const bool skin = state.skin_distance() > 0.0;
-    const PointsView<Dim> real_points = points_of<Dim>(state.real);
-    const PointsView<Dim> virtual_points = points_of<Dim>(state.virtual_);
+    // With the reference kernel the pairs are those within 2h at X, for the whole run.
+    const bool reference = state.reference_kernel();
+    const PointsView<Dim> real_points = reference ? initial_points_of<Dim>(state.real) : points_of<Dim>(state.real);
+    const PointsView<Dim> virtual_points =
+        reference ? initial_points_of<Dim>(state.virtual_) : points_of<Dim>(state.virtual_);
     // The old lists are released first, so that two generations never coexist (memory).
     state.lists.virtual_from_real = NeighborList{};
     state.lists.real_from_virtual = NeighborList{};
@@ -79,7 +82,7 @@ struct NeighborLists {
   /// motion the lists hold every pair within 2h and only the normals are computed again;
   /// otherwise the lists are rebuilt.
   static void update_after_move(SolverState<Dim>& state, double dt) {
-    if (state.skin_distance() > 0.0 && !outdated(state, dt)) {
+    if (state.reference_kernel() || (state.skin_distance() > 0.0 && !outdated(state, dt))) {
       BoundaryNormals<Dim>::compute(state);
     } else {
       rebuild(state);

@@ -80,6 +80,17 @@ struct SolverSettings {
   /// motion velocity alone.
   enum class DeficientStencils { keep, widen, widen_motion };
   DeficientStencils deficient_stencils = DeficientStencils::keep;
+  /// Updated Lagrangian, experimental (issue 14; docs/notes/2026-11-26-reference-kernel.md):
+  /// where the kernel is evaluated. current: at the current offsets x_J - x_I (the
+  /// default; the stencils deform with the body: a sheared corner or a compressed face
+  /// loses its neighbours); reference: at the initial offsets X_J - X_I, the corrections
+  /// (gradient, linear interpolation) at the current ones
+  /// (kernels/corrected_operators.hpp, ReferenceStencil), so the stencils are those of
+  /// the undeformed body and the weights stay exact for linear fields of the current
+  /// configuration. The lists are then searched once, in the reference configuration
+  /// (no skin, no rebuild): bodies that tear or mix are out of its reach.
+  enum class KernelConfiguration { current, reference };
+  KernelConfiguration kernel_configuration = KernelConfiguration::current;
   /// Search of the neighbour lists: cell list, kd-tree, or `automatic` (the rule of
   /// neighbor/neighbor_search.hpp). Same lists either way.
   NeighborSearch neighbor_search = NeighborSearch::automatic;

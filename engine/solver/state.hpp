@@ -187,8 +187,21 @@ struct SolverState {
   bool objective_rates() const { return settings.kinematics == Kinematics::updated_lagrangian; }
   /// Updated Lagrangian: d rho / dt = -rho div v.
   bool density_follows() const { return settings.kinematics == Kinematics::updated_lagrangian; }
-  /// The skin in length units (SolverSettings::neighbor_skin x 2h), 0 in small strain.
-  double skin_distance() const { return positions_move() ? settings.neighbor_skin * support_radius() : 0.0; }
+  /// Updated Lagrangian with the kernel in the reference configuration
+  /// (SolverSettings::kernel_configuration): the lists are searched once, at X.
+  bool reference_kernel() const {
+    return positions_move() && settings.kernel_configuration == SolverSettings<Dim>::KernelConfiguration::reference;
+  }
+  /// The reference stencil of a row (query point's initial position, sources' initial
+  /// positions), passed to compute_stencil when reference_kernel().
+  static ReferenceStencil<Dim> reference_stencil(const Vec& query_initial_position, const ParticleSet<Dim>& source_set) {
+    return {query_initial_position, initial_points_of<Dim>(source_set)};
+  }
+  /// The skin in length units (SolverSettings::neighbor_skin x 2h), 0 in small strain
+  /// and with the reference kernel (lists never outdated).
+  double skin_distance() const {
+    return positions_move() && !reference_kernel() ? settings.neighbor_skin * support_radius() : 0.0;
+  }
   /// Radius of the neighbour searches: 2h plus the skin.
   double list_radius() const { return support_radius() + skin_distance(); }
 
@@ -199,7 +212,7 @@ struct SolverState {
   /// after the full step; the full step then uses the list built at n, with the midpoint
   /// positions.
   bool lists_used_once() const {
-    return positions_move() && settings.hourglass_stiffness == 0.0 && skin_distance() == 0.0;
+    return positions_move() && !reference_kernel() && settings.hourglass_stiffness == 0.0 && skin_distance() == 0.0;
   }
 
   /// Whether the pair (a_i, b_j) of a neighbour row lies within the support 2h. Without

@@ -53,9 +53,13 @@ struct CharacteristicBoundary {
     for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
       const std::uint32_t i = state.boundary.particle[b];
       const auto nb = state.lists.real_from_real.neighbors(i);
+      const ReferenceStencil<Dim> row_reference = state.reference_kernel()
+                                                      ? SolverState<Dim>::reference_stencil(state.initial_position_of(i), state.real)
+                                                      : ReferenceStencil<Dim>{};
       counts += compute_stencil<Dim>(kernel, state.settings.smoothing_length, state.real.position_of(i),
                                      source_points, source.volume, nb,
-                                     InterpolationKind::shepard, w);
+                                     InterpolationKind::shepard, w, simd_path(),
+                                     state.reference_kernel() ? &row_reference : nullptr);
       Mat grad_v = Mat::Zero();
       for (std::size_t k = 0; k < nb.size(); ++k)
         for (int d = 0; d < Dim; ++d)
