@@ -20,6 +20,8 @@
 #include <cstring>
 #include <string>
 
+#include <sys/resource.h>
+
 namespace {
 
 using namespace tsph;
@@ -52,16 +54,11 @@ struct Options {
   std::exit(2);
 }
 
-/// VmHWM of /proc/self/status in bytes (0 where it cannot be read).
+/// Peak resident memory of this process in bytes (getrusage's ru_maxrss, in KiB on
+/// Linux; 0 where it cannot be read).
 double peak_resident_bytes() {
-  std::FILE* status = std::fopen("/proc/self/status", "r");
-  if (!status) return 0.0;
-  char line[256];
-  double kib = 0.0;
-  while (std::fgets(line, sizeof line, status))
-    if (std::strncmp(line, "VmHWM:", 6) == 0) kib = std::strtod(line + 6, nullptr);
-  std::fclose(status);
-  return kib * 1024.0;
+  struct rusage usage {};
+  return ::getrusage(RUSAGE_SELF, &usage) == 0 ? 1024.0 * static_cast<double>(usage.ru_maxrss) : 0.0;
 }
 
 /// The timed part, one function so that callgrind can count it alone
@@ -120,7 +117,7 @@ int run(const Options& o) {
               setup_s, o.steps, steps_s,
               o.steps > 0 ? 1e-6 * static_cast<double>(real_count) * o.steps / steps_s : 0.0,
               estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists, skin), solver.kinetic_energy());
-  // Peak resident memory of the whole process (VmHWM), setup included.
+  // Peak resident memory of the whole process, setup included.
   if (const double peak = peak_resident_bytes(); peak > 0.0)
     std::printf("peak RSS %.3f GiB, %.0f B per real particle\n", peak / 1073741824.0,
                 peak / static_cast<double>(real_count));
