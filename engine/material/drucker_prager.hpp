@@ -1,0 +1,224 @@
+// Drucker-Prager plasticity with the Jaumann rate (issue 16): cohesion c with linear
+// hardening, friction angle phi, dilation angle psi (non-associated for psi < phi), a
+// tension cut-off, the apex return, and optional Perzyna viscoplasticity. Dim = 2 (plane
+// strain) and 3. Tension positive, p = tr(sigma) / 3, s = dev(sigma), J2 = s : s / 2:
+//   yield     f = sqrt(J2) + eta p - xi c(eps_p),     c(eps_p) = c0 + H eps_p,
+//   potential g = sqrt(J2) + eta_bar p  (eta_bar from psi as eta from phi),
+// with (eta, xi) matched to Mohr-Coulomb (de Souza Neto, Peric & Owen 2008, table 6.1):
+//   plane_strain: eta = 3 tan(phi) / sqrt(9 + 12 tan^2 phi), xi = 3 / sqrt(9 + 12 tan^2 phi)
+//                 (phi = 0: sqrt(J2) <= c, Tresca's c in plane strain: the footing's
+//                 (2 + pi) c of Prandtl);
+//   compression:  eta = 6 sin(phi) / (sqrt(3) (3 - sin phi)), xi = 6 cos(phi) / (sqrt(3) (3 - sin
+//   phi))
+//                 (the outer cone, through the triaxial-compression corners);
+//   extension:    the same with 3 + sin(phi) (the inner cone).
+// The return mapping (de Souza Neto et al., Boxes 8.8-8.9), after the elastic predictor
+// sigma_tr = sigma^n + dt (D : d + W sigma - sigma W):
+//   1. tension cut-off: p_tr above t (the key, or the apex eta p = xi c when psi = 0, where
+//      no plastic flow can lower p) is brought back to t by a volumetric plastic strain;
+//   2. cone: the consistency condition in dgamma,
+//        sqrt(J2_tr) - G dgamma + eta (p_tr - K eta_bar dgamma) - xi c(eps_p + xi dgamma)
+//          - [Perzyna] xi c0 (dgamma / (dt fluidity))^(1/N) = 0,
+//      then s = (1 - G dgamma / sqrt(J2_tr)) s_tr, p = p_tr - K eta_bar dgamma,
+//      eps_p += xi dgamma; valid while sqrt(J2_tr) >= G dgamma;
+//   3. otherwise the apex (s = 0): the volumetric plastic strain de_v solves
+//        p_tr - K de_v = (xi / eta) [c(eps_p + (xi / eta_bar) de_v) + Perzyna term],
+//      eps_p += (xi / eta_bar) de_v.
+// Each is exact for a step of homogeneous deformation with a fixed flow direction.
+// Known simplification: the cut-off and the cone are returned to one after the other,
+// not as a two-surface corner return.
+#pragma once
+
+#include "engine/material/j2_plasticity.hpp"
+#include "engine/material/linear_elastic.hpp"
+#include "engine/material/plastic_state.hpp"
+#include "engine/material/stress.hpp"
+#include "engine/material/stress_update.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+namespace tsph {
+
+template <int Dim>
+class DruckerPrager {
+ public:
+  enum class Cone { plane_strain, compression, extension };
+  struct Parameters {
+    double cohesion = 0.0;                                            ///< c0 (Pa) > 0
+    double friction_angle = 0.0;                                      ///< phi (degrees) in [0, 90)
+    double dilation_angle = 0.0;                                      ///< psi (degrees) in [0, phi]
+    double hardening = 0.0;                                           ///< H (Pa): c = c0 + H eps_p
+    double tension_cutoff = std::numeric_limits<double>::infinity();  ///< t (Pa), p <= t
+    Cone cone = Cone::plane_strain;
+  };
+  struct Perzyna {
+    double fluidity = 0.0;  ///< 1/s
+    double exponent = 1.0;  ///< N >= 1
+  };
+
+  DruckerPrager(LinearElastic<Dim> elastic, Parameters parameters,
+                std::optional<Perzyna> perzyna = std::nullopt)
+      : elastic_(std::move(elastic)), p_(parameters), perzyna_(perzyna) {
+    static_assert(Dim >= 2, "Drucker-Prager needs two or three dimensions");
+    if constexpr (Dim == 2)
+      if (elastic_.plane_mode() == PlaneMode::plane_stress)
+        throw std::invalid_argument(
+            "material: plasticity in 2D needs material.plane = \"strain\" (the plane-stress return "
+            "mapping is "
+            "not implemented)");
+    check_parameter("drucker_prager", "cohesion", p_.cohesion, 0.0, true,
+                    "give the cohesion c in Pa");
+    if (!(p_.friction_angle >= 0.0 && p_.friction_angle < 90.0))
+      throw std::invalid_argument(
+          "material (drucker_prager): friction_angle = " + std::to_string(p_.friction_angle) +
+          " must lie in [0, 90) degrees");
+    if (!(p_.dilation_angle >= 0.0 && p_.dilation_angle <= p_.friction_angle))
+      throw std::invalid_argument(
+          "material (drucker_prager): dilation_angle = " + std::to_string(p_.dilation_angle) +
+          " must lie in [0, friction_angle = " + std::to_string(p_.friction_angle) + "] degrees");
+    check_parameter("drucker_prager", "hardening", p_.hardening, 0.0, false, "give H >= 0 (Pa)");
+    if (std::isnan(p_.tension_cutoff))
+      throw std::invalid_argument("material (drucker_prager): tension_cutoff is not a number");
+    if (perzyna_) {
+      check_parameter("drucker_prager", "fluidity", perzyna_->fluidity, 0.0, true,
+                      "give the Perzyna fluidity in 1/s");
+      check_parameter("drucker_prager", "exponent", perzyna_->exponent, 1.0, false,
+                      "give the Perzyna exponent N >= 1");
+    }
+    cone_constants(radians(p_.friction_angle), eta_, xi_);
+    double unused = 0.0;
+    cone_constants(radians(p_.dilation_angle), eta_bar_, unused);
+  }
+
+  const LinearElastic<Dim>& elastic() const { return elastic_; }
+  double strain_energy_density(const StressVector<Dim>& stress) const {
+    return elastic_.strain_energy_density(stress);
+  }
+  PlasticState initial_state() const { return {}; }
+  double eta() const { return eta_; }
+  double xi() const { return xi_; }
+  double eta_bar() const { return eta_bar_; }
+  double cohesion(double plastic_strain) const {
+    return p_.cohesion + p_.hardening * plastic_strain;
+  }
+  /// The yield function f at a stress (tension positive) and hardening variable.
+  double yield_function(const Eigen::Matrix3d& sigma, double plastic_strain) const {
+    const Eigen::Matrix3d s = deviator(sigma);
+    return std::sqrt(0.5 * s.squaredNorm()) + eta_ * sigma.trace() / 3.0 -
+           xi_ * cohesion(plastic_strain);
+  }
+
+  StressVector<Dim> update_stress(const StressUpdate<Dim>& in, PlasticState& state) const {
+    const StressVector<Dim> rate =
+        elastic_.stress_rate(in.velocity_gradient, in.rate_stress, in.objective);
+    StressVector<Dim> trial;
+    for (int m = 0; m < stress_component_count<Dim>; ++m) trial[m] = in.stress[m] + in.dt * rate[m];
+    state.yielding = false;
+    const Eigen::Matrix3d sigma = to_tensor<Dim>(trial);
+    double mean = sigma.trace() / 3.0;
+    Eigen::Matrix3d dev = deviator(sigma);
+    const double bulk = elastic_.model_lame() + 2.0 * elastic_.shear_modulus() / 3.0;
+    const double shear = elastic_.shear_modulus();
+    double work = 0.0;
+    double eps = state.equivalent_plastic_strain;
+
+    // 1. Tension cut-off (with psi = 0 the apex pressure is one: see the file comment).
+    double cutoff = p_.tension_cutoff;
+    if (eta_bar_ == 0.0 && eta_ > 0.0) cutoff = std::min(cutoff, xi_ * cohesion(eps) / eta_);
+    if (mean > cutoff) {
+      const double volumetric = (mean - cutoff) / bulk;  // plastic tr(d eps^p)
+      mean = cutoff;
+      work += mean * volumetric;
+      state.yielding = true;
+    }
+    // 2. Cone.
+    const double root_j2 = std::sqrt(0.5 * dev.squaredNorm());
+    const double f_trial = root_j2 + eta_ * mean - xi_ * cohesion(eps);
+    if (f_trial > 0.0) {
+      state.yielding = true;
+      const double slope_elastic = shear + bulk * eta_ * eta_bar_ + xi_ * xi_ * p_.hardening;
+      double dgamma = 0.0;
+      if (!perzyna_) {
+        dgamma = f_trial / slope_elastic;
+      } else {
+        const double c0 = p_.cohesion, scale = in.dt * perzyna_->fluidity,
+                     power = 1.0 / perzyna_->exponent;
+        dgamma = decreasing_root(
+            [&](double x, double& slope) {
+              const double viscous = xi_ * c0 * std::pow(x / scale, power);
+              slope = -slope_elastic - (x > 0.0 ? power * viscous / x : 0.0);
+              return f_trial - slope_elastic * x - viscous;
+            },
+            f_trial / slope_elastic);
+      }
+      // With psi = 0 the cut-off has kept p at or below the apex, and the cone return is
+      // valid up to round-off.
+      if (root_j2 - shear * dgamma >= 0.0 || eta_bar_ == 0.0) {
+        dev *= root_j2 > 0.0 ? std::max(0.0, 1.0 - shear * dgamma / root_j2) : 0.0;
+        mean -= bulk * eta_bar_ * dgamma;
+        eps += xi_ * dgamma;
+        work += dgamma * (std::sqrt(0.5 * dev.squaredNorm()) + eta_bar_ * mean);
+      } else {
+        // 3. Apex (eta_bar > 0 here: with psi = 0 the cut-off kept p at or below it).
+        const double alpha = xi_ / eta_bar_, beta = xi_ / eta_;
+        const double p_trial = mean, eps0 = eps;
+        const auto residual = [&](double x, double& slope) {
+          double viscous = 0.0, viscous_slope = 0.0;
+          if (perzyna_) {
+            const double power = 1.0 / perzyna_->exponent;
+            viscous = p_.cohesion * std::pow(alpha * x / xi_ / (in.dt * perzyna_->fluidity), power);
+            viscous_slope = x > 0.0 ? power * viscous / x : 0.0;
+          }
+          slope = -bulk - beta * (alpha * p_.hardening + viscous_slope);
+          return p_trial - bulk * x - beta * (cohesion(eps0 + alpha * x) + viscous);
+        };
+        double volumetric = 0.0;
+        if (!perzyna_)
+          volumetric = (p_trial - beta * cohesion(eps0)) / (bulk + alpha * beta * p_.hardening);
+        else
+          volumetric = decreasing_root(residual, p_trial / bulk);
+        dev.setZero();
+        mean = p_trial - bulk * volumetric;
+        eps = eps0 + alpha * volumetric;
+        work += mean * volumetric;
+      }
+    }
+    if (state.yielding) {
+      state.equivalent_plastic_strain = eps;
+      state.plastic_work += work;
+    }
+    return from_tensor<Dim>(dev + mean * Eigen::Matrix3d::Identity());
+  }
+
+ private:
+  void cone_constants(double angle, double& eta, double& xi) const {
+    switch (p_.cone) {
+      case Cone::plane_strain: {
+        const double t = std::tan(angle), root = std::sqrt(9.0 + 12.0 * t * t);
+        eta = 3.0 * t / root;
+        xi = 3.0 / root;
+        break;
+      }
+      case Cone::compression:
+      case Cone::extension: {
+        const double sign = p_.cone == Cone::compression ? -1.0 : 1.0;
+        const double denominator = std::sqrt(3.0) * (3.0 + sign * std::sin(angle));
+        eta = 6.0 * std::sin(angle) / denominator;
+        xi = 6.0 * std::cos(angle) / denominator;
+        break;
+      }
+    }
+  }
+
+  LinearElastic<Dim> elastic_;
+  Parameters p_;
+  std::optional<Perzyna> perzyna_;
+  double eta_ = 0.0, xi_ = 1.0, eta_bar_ = 0.0;
+};
+
+}  // namespace tsph

@@ -1,0 +1,240 @@
+// J2 (von Mises) plasticity with the Jaumann rate (issue 16): linear isotropic and
+// kinematic hardening, or the Johnson-Cook strength (strain hardening, strain rate,
+// optional thermal softening from the plastic work), optionally regularised by Perzyna
+// viscoplasticity. Dim = 1 (uniaxial stress), 2 (plane strain) and 3.
+//
+// Each step (Simo & Hughes 1998, Box 3.2; de Souza Neto, Peric & Owen 2008, section 7.3):
+//   1. elastic predictor: sigma_tr = sigma^n + dt (D : d + W sigma - sigma W)
+//      (LinearElastic::stress_rate), back stress alpha_tr = alpha + dt (W alpha - alpha W);
+//   2. xi_tr = dev(sigma_tr) - alpha_tr, q_tr = sqrt(3/2) |xi_tr| (1D: |sigma_tr - alpha|);
+//   3. if q_tr > Y(eps_p): the consistency condition in the plastic strain increment
+//      de = sqrt(2/3) dgamma,
+//        q_tr - (3 mu + H_kin) de - Y(eps_p + de, de / dt) = 0      (1D: E in place of 3 mu)
+//      (closed form for linear hardening; otherwise a safeguarded Newton solve), then
+//      the radial return along n = xi_tr / |xi_tr|:
+//        s = dev(sigma_tr) - 2 mu dgamma n,  alpha += 2/3 H_kin dgamma n,  eps_p += de.
+// The return is exact (to round-off) for a step of homogeneous deformation with a fixed
+// flow direction, so the stepped response of a radial path is its closed form.
+// The yield stress Y:
+//   linear:        Y = sigma_y + H_iso eps_p;
+//   Johnson-Cook:  Y = (A + B eps_p^n) (1 + C ln max(1, rate / rate_0)) (1 - T*^m),
+//                  T* = (T - T_room) / (T_melt - T_room) in [0, 1), rate = de / dt;
+//   Perzyna:       Y + sigma_y (rate / fluidity)^(1 / N), i.e. the overstress law
+//                  rate = fluidity <(q - Y) / sigma_y>^N (Perzyna 1966).
+// Thermal softening: the temperature rises by chi dW_p / (rho_0 c_v) after each step
+// (Taylor-Quinney factor chi; explicit in the temperature: the step's Y uses T^n).
+#pragma once
+
+#include "engine/material/linear_elastic.hpp"
+#include "engine/material/plastic_state.hpp"
+#include "engine/material/stress.hpp"
+#include "engine/material/stress_update.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+
+namespace tsph {
+
+/// The full 3x3 velocity gradient of a Dim-dimensional one (zero out of plane).
+template <int Dim>
+Eigen::Matrix3d embed_gradient(const Matrix<Dim>& grad_v) {
+  Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
+  g.topLeftCorner<Dim, Dim>() = grad_v;
+  return g;
+}
+
+template <int Dim>
+class J2Plasticity {
+ public:
+  /// Linear hardening: Y = yield_stress + isotropic_modulus eps_p; the back stress grows
+  /// by 2/3 kinematic_modulus d eps^p.
+  struct Linear {
+    double yield_stress = 0.0;
+    double isotropic_modulus = 0.0;
+    double kinematic_modulus = 0.0;
+  };
+  /// Johnson & Cook (1983). `thermal`: the softening term and the heating by plastic
+  /// work (off: T stays at room temperature and the term is 1).
+  struct JohnsonCook {
+    double a = 0.0, b = 0.0, n = 1.0, c = 0.0;
+    double reference_rate = 1.0;  ///< rate_0 (1/s)
+    bool thermal = false;
+    double room_temperature = 293.0, melt_temperature = 1356.0, m = 1.0;
+    double specific_heat = 383.0;  ///< c_v (J/(kg K))
+    double taylor_quinney = 0.9;   ///< chi, the part of the plastic work turned into heat
+  };
+  /// Perzyna regularisation (linear hardening only): fluidity (1/s) > 0, exponent N >= 1.
+  struct Perzyna {
+    double fluidity = 0.0;
+    double exponent = 1.0;
+  };
+
+  J2Plasticity(LinearElastic<Dim> elastic, Linear hardening,
+               std::optional<Perzyna> perzyna = std::nullopt)
+      : elastic_(std::move(elastic)), linear_(hardening), perzyna_(perzyna) {
+    check_common();
+    check_parameter("j2", "yield_stress", linear_.yield_stress, 0.0, true,
+                    "give the initial yield stress in Pa");
+    check_parameter("j2", "isotropic_hardening", linear_.isotropic_modulus, 0.0, false,
+                    "give a hardening modulus >= 0 (Pa)");
+    check_parameter("j2", "kinematic_hardening", linear_.kinematic_modulus, 0.0, false,
+                    "give a hardening modulus >= 0 (Pa)");
+    if (perzyna_) {
+      check_parameter("j2", "fluidity", perzyna_->fluidity, 0.0, true,
+                      "give the Perzyna fluidity in 1/s");
+      check_parameter("j2", "exponent", perzyna_->exponent, 1.0, false,
+                      "give the Perzyna exponent N >= 1");
+    }
+  }
+  J2Plasticity(LinearElastic<Dim> elastic, JohnsonCook strength)
+      : elastic_(std::move(elastic)), johnson_cook_(strength) {
+    check_common();
+    const JohnsonCook& j = *johnson_cook_;
+    check_parameter("johnson_cook", "A", j.a, 0.0, true, "give the initial yield stress A in Pa");
+    check_parameter("johnson_cook", "B", j.b, 0.0, false, "give the hardening B >= 0 (Pa)");
+    check_parameter("johnson_cook", "n", j.n, 0.0, true, "give the hardening exponent n > 0");
+    check_parameter("johnson_cook", "C", j.c, 0.0, false,
+                    "give the strain-rate coefficient C >= 0");
+    check_parameter("johnson_cook", "reference_rate", j.reference_rate, 0.0, true,
+                    "give rate_0 in 1/s");
+    if (j.thermal) {
+      check_parameter("johnson_cook", "m", j.m, 0.0, true, "give the thermal exponent m > 0");
+      check_parameter("johnson_cook", "room_temperature", j.room_temperature, 0.0, true,
+                      "give T_room in K");
+      if (!(j.melt_temperature > j.room_temperature))
+        throw std::invalid_argument(
+            "material (johnson_cook): melt_temperature = " + std::to_string(j.melt_temperature) +
+            " must be above room_temperature = " + std::to_string(j.room_temperature));
+      check_parameter("johnson_cook", "specific_heat", j.specific_heat, 0.0, true,
+                      "give c_v in J/(kg K)");
+      check_parameter("johnson_cook", "taylor_quinney", j.taylor_quinney, 0.0, false,
+                      "give chi in [0, 1]");
+      if (j.taylor_quinney > 1.0)
+        throw std::invalid_argument("material (johnson_cook): taylor_quinney = " +
+                                    std::to_string(j.taylor_quinney) + " must be at most 1");
+    }
+  }
+
+  const LinearElastic<Dim>& elastic() const { return elastic_; }
+  double strain_energy_density(const StressVector<Dim>& stress) const {
+    return elastic_.strain_energy_density(stress);
+  }
+  bool is_johnson_cook() const { return johnson_cook_.has_value(); }
+
+  /// The state of a virgin particle (the temperature at room temperature).
+  PlasticState initial_state() const {
+    PlasticState state;
+    if (johnson_cook_) state.temperature = johnson_cook_->room_temperature;
+    return state;
+  }
+
+  /// The current yield stress Y(eps_p, rate) at temperature T (see the file comment).
+  double yield_stress(double plastic_strain, double rate, double temperature) const {
+    if (johnson_cook_) {
+      const JohnsonCook& j = *johnson_cook_;
+      double y = j.a + (plastic_strain > 0.0 ? j.b * std::pow(plastic_strain, j.n) : 0.0);
+      if (j.c > 0.0 && rate > j.reference_rate) y *= 1.0 + j.c * std::log(rate / j.reference_rate);
+      if (j.thermal) y *= 1.0 - std::pow(homologous(temperature), j.m);
+      return y;
+    }
+    double y = linear_.yield_stress + linear_.isotropic_modulus * plastic_strain;
+    if (perzyna_ && rate > 0.0)
+      y += linear_.yield_stress * std::pow(rate / perzyna_->fluidity, 1.0 / perzyna_->exponent);
+    return y;
+  }
+
+  /// sigma^{n+1} and the particle's state at n+1 from sigma^n, L and dt (file comment).
+  StressVector<Dim> update_stress(const StressUpdate<Dim>& in, PlasticState& state) const {
+    const StressVector<Dim> rate =
+        elastic_.stress_rate(in.velocity_gradient, in.rate_stress, in.objective);
+    StressVector<Dim> trial;
+    for (int m = 0; m < stress_component_count<Dim>; ++m) trial[m] = in.stress[m] + in.dt * rate[m];
+    if (in.objective && has_kinematic())
+      state.back_stress =
+          jaumann_rotated(state.back_stress, embed_gradient<Dim>(in.velocity_gradient), in.dt);
+    state.yielding = false;
+    if constexpr (Dim == 1) {
+      const double relative = trial[0] - state.back_stress(0, 0);
+      const double q_trial = std::abs(relative);
+      const double increment = plastic_increment(q_trial, elastic_.young_modulus(), state, in.dt);
+      if (increment <= 0.0) return trial;
+      const double direction = relative > 0.0 ? 1.0 : -1.0;
+      StressVector<Dim> updated{trial[0] - elastic_.young_modulus() * increment * direction};
+      state.back_stress(0, 0) += linear_.kinematic_modulus * increment * direction;
+      finish(state, increment, std::abs(updated[0]) * increment, in.dt);
+      return updated;
+    } else {
+      const Eigen::Matrix3d sigma = to_tensor<Dim>(trial);
+      const double mean = sigma.trace() / 3.0;
+      const Eigen::Matrix3d relative = deviator(sigma) - state.back_stress;
+      const double norm = relative.norm();
+      const double q_trial = std::sqrt(1.5) * norm;
+      const double twice_shear = 2.0 * elastic_.shear_modulus();
+      const double increment = plastic_increment(q_trial, 1.5 * twice_shear, state, in.dt);
+      if (increment <= 0.0) return trial;
+      const Eigen::Matrix3d direction = relative / norm;
+      const double dgamma = std::sqrt(1.5) * increment;  // |d eps^p| = sqrt(3/2) de
+      const Eigen::Matrix3d dev = deviator(sigma) - twice_shear * dgamma * direction;
+      state.back_stress += (2.0 / 3.0) * linear_.kinematic_modulus * dgamma * direction;
+      finish(state, increment, dgamma * dev.cwiseProduct(direction).sum(), in.dt);
+      return from_tensor<Dim>(dev + mean * Eigen::Matrix3d::Identity());
+    }
+  }
+
+ private:
+  void check_common() const {
+    if constexpr (Dim == 2)
+      if (elastic_.plane_mode() == PlaneMode::plane_stress)
+        throw std::invalid_argument(
+            "material: plasticity in 2D needs material.plane = \"strain\" (the plane-stress return "
+            "mapping, "
+            "sigma_zz = 0 with a plastic e_zz, is not implemented)");
+  }
+  bool has_kinematic() const { return !johnson_cook_ && linear_.kinematic_modulus > 0.0; }
+  double homologous(double temperature) const {
+    const JohnsonCook& j = *johnson_cook_;
+    return std::clamp(
+        (temperature - j.room_temperature) / (j.melt_temperature - j.room_temperature), 0.0, 1.0);
+  }
+
+  /// The equivalent plastic strain increment de of the step (0: elastic): the root of
+  /// q_trial - (modulus + H_kin) de - Y(eps_p + de, de / dt), modulus = 3 mu (1D: E).
+  double plastic_increment(double q_trial, double modulus, const PlasticState& state,
+                           double dt) const {
+    const double eps = state.equivalent_plastic_strain;
+    const double f_trial = q_trial - yield_stress(eps, 0.0, state.temperature);
+    if (!(f_trial > 0.0)) return 0.0;
+    const double slope_elastic = modulus + (johnson_cook_ ? 0.0 : linear_.kinematic_modulus);
+    if (!johnson_cook_ && !perzyna_)  // linear: closed form
+      return f_trial / (slope_elastic + linear_.isotropic_modulus);
+    const auto residual = [&](double de, double& slope) {
+      const double y = yield_stress(eps + de, de / dt, state.temperature);
+      // dY/d(de) by a central difference scaled to de (the laws are smooth for de > 0).
+      const double step = std::max(1e-8 * de, 1e-300);
+      const double y_plus = yield_stress(eps + de + step, (de + step) / dt, state.temperature);
+      slope = -slope_elastic - (y_plus - y) / step;
+      return q_trial - slope_elastic * de - y;
+    };
+    return decreasing_root(residual, q_trial / slope_elastic);
+  }
+
+  /// Records a plastic step: the strain, the work, and Johnson-Cook heating.
+  void finish(PlasticState& state, double increment, double work, double dt) const {
+    (void)dt;
+    state.yielding = true;
+    state.equivalent_plastic_strain += increment;
+    state.plastic_work += work;
+    if (johnson_cook_ && johnson_cook_->thermal)
+      state.temperature += johnson_cook_->taylor_quinney * work /
+                           (elastic_.reference_density() * johnson_cook_->specific_heat);
+  }
+
+  LinearElastic<Dim> elastic_;
+  Linear linear_{};
+  std::optional<JohnsonCook> johnson_cook_;
+  std::optional<Perzyna> perzyna_;
+};
+
+}  // namespace tsph

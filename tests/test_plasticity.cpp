@@ -1,0 +1,409 @@
+// The plastic material models of issue 16 (engine/material/j2_plasticity.hpp,
+// drucker_prager.hpp) at one material point driven by a homogeneous deformation: the
+// stepped response against the closed-form elastoplastic one on radial paths (uniaxial
+// strain, simple shear, hydrostatic tension to the apex), loading and unloading, for
+// any number of steps (the return mapping is exact for a step of homogeneous
+// deformation with a fixed flow direction); Johnson-Cook, Perzyna and the thermal
+// softening by the identities their steps satisfy; bad parameters refused.
+#include "engine/material/drucker_prager.hpp"
+#include "engine/material/j2_plasticity.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace {
+
+using namespace tsph;
+
+constexpr double kYoung = 200e9, kNu = 0.3, kDensity = 7800.0;
+const double kShear = kYoung / (2 * (1 + kNu));
+const double kBulk = kYoung / (3 * (1 - 2 * kNu));
+
+template <int Dim>
+LinearElastic<Dim> steel() {
+  return LinearElastic<Dim>(kYoung, kNu, kDensity, PlaneMode::plane_strain);
+}
+
+template <int Dim>
+using Linear = typename J2Plasticity<Dim>::Linear;
+
+/// Drives a model through constant velocity gradients: `steps` steps of dt each
+/// (geometrically linear unless `objective`), returning the stress after each segment.
+template <int Dim, class Model>
+StressVector<Dim> drive(const Model& model, StressVector<Dim> stress, PlasticState& state,
+                        const Matrix<Dim>& grad_v, double duration, int steps,
+                        bool objective = false) {
+  const double dt = duration / steps;
+  for (int n = 0; n < steps; ++n)
+    stress = model.update_stress({stress, stress, grad_v, dt, objective}, state);
+  return stress;
+}
+
+/// The closed-form response of linear isotropic + kinematic hardening to a monotonic
+/// change of a strain measure along a fixed deviatoric direction N: e = scale x the
+/// measure is the deviatoric strain along N (tensor norm), s and a the deviatoric and
+/// back stresses along N; elastic ds = modulus de (2 mu; 1D: E), the surface
+/// |s - a| = radius_factor (Y0 + H_iso eps_p), plastic (strain norm dg)
+/// ds = modulus (de - dg), da = kin_factor H_kin dg, deps_p = eps_factor dg.
+/// J2 in 2D/3D: radius and eps factors sqrt(2/3), kin factor 2/3; 1D: all 1.
+struct ScalarPlasticity {
+  double modulus, radius_factor, kin_factor, eps_factor, yield, iso, kin, scale;
+  double s = 0.0, a = 0.0, eps = 0.0;
+  void advance(double measure) {  // one monotonic segment, exactly
+    const double de = scale * measure;
+    const double sign = de > 0.0 ? 1.0 : -1.0;
+    const double radius = radius_factor * (yield + iso * eps);
+    // Elastic until s - a reaches sign * radius.
+    const double elastic_room =
+        (sign * radius - (s - a)) / modulus;  // strain to the surface, same sign as de
+    if (std::abs(elastic_room) >= std::abs(de)) {
+      s += modulus * de;
+      return;
+    }
+    s += modulus * elastic_room;
+    const double rest = std::abs(de - elastic_room);
+    // Consistency: d|xi| = (modulus rest - (modulus + kin_factor H_kin) dg) = radius_factor iso
+    // eps_factor dg.
+    const double dg =
+        modulus * rest / (modulus + kin_factor * kin + radius_factor * iso * eps_factor);
+    s += sign * (modulus * rest - modulus * dg);
+    a += sign * kin_factor * kin * dg;
+    eps += eps_factor * dg;
+  }
+};
+
+template <int Dim>
+Matrix<Dim> uniaxial_strain_rate(double rate) {
+  Matrix<Dim> g = Matrix<Dim>::Zero();
+  g(0, 0) = rate;
+  return g;
+}
+
+// J2, uniaxial strain (2D plane strain, 3D) and uniaxial stress (1D): load to 6 strains
+// at first yield, unload through reverse yielding (Bauschinger) to -4, reload to 2,
+// in 1, 7 and 400 steps per segment: sigma and eps_p against the closed form to 1e-10.
+template <int Dim>
+void j2_uniaxial(double iso, double kin) {
+  const double yield = 250e6;
+  const J2Plasticity<Dim> model(steel<Dim>(), Linear<Dim>{yield, iso, kin});
+  // Along N = (2, -1, -1) / sqrt(6): |dev(d eps)| = sqrt(2/3) d eps_xx; 1D: E and Y.
+  const double first_yield = Dim == 1 ? yield / kYoung : yield / (2.0 * kShear);
+  const std::vector<double> targets = {6 * first_yield, -4 * first_yield, 2 * first_yield};
+  for (int steps : {1, 7, 400}) {
+    ScalarPlasticity exact = Dim == 1
+                                 ? ScalarPlasticity{kYoung, 1.0, 1.0, 1.0, yield, iso, kin, 1.0}
+                                 : ScalarPlasticity{2 * kShear, std::sqrt(2.0 / 3.0),
+                                                    2.0 / 3.0,  std::sqrt(2.0 / 3.0),
+                                                    yield,      iso,
+                                                    kin,        std::sqrt(2.0 / 3.0)};
+    PlasticState state = model.initial_state();
+    StressVector<Dim> stress{};
+    double strain = 0.0;
+    for (double target : targets) {
+      const double duration = 1e-3;
+      stress = drive<Dim>(model, stress, state,
+                          uniaxial_strain_rate<Dim>((target - strain) / duration), duration, steps);
+      exact.advance(target - strain);
+      strain = target;
+      SCOPED_TRACE(testing::Message() << "steps " << steps << " strain " << strain);
+      if constexpr (Dim == 1) {
+        EXPECT_NEAR(stress[0], exact.s, 1e-10 * yield);
+      } else {
+        const double deviator_xx = exact.s * std::sqrt(2.0 / 3.0);  // N_xx = 2 / sqrt(6)
+        EXPECT_NEAR(stress[0], kBulk * strain + deviator_xx, 1e-10 * yield);
+        EXPECT_NEAR(stress[1], kBulk * strain - 0.5 * deviator_xx, 1e-10 * yield);
+        EXPECT_NEAR(to_tensor<Dim>(stress)(2, 2), kBulk * strain - 0.5 * deviator_xx,
+                    1e-10 * yield);
+      }
+      EXPECT_NEAR(state.equivalent_plastic_strain, exact.eps, 1e-10 * first_yield);
+    }
+    EXPECT_GT(state.plastic_work, 0.0);
+  }
+}
+
+TEST(J2Plasticity, UniaxialLoadUnloadMatchesTheClosedForm) {
+  for (auto [iso, kin] : {std::pair{0.0, 0.0}, {2e9, 0.0}, {0.0, 3e9}, {2e9, 3e9}}) {
+    SCOPED_TRACE(testing::Message() << "H_iso " << iso << " H_kin " << kin);
+    j2_uniaxial<1>(iso, kin);
+    j2_uniaxial<2>(iso, kin);
+    j2_uniaxial<3>(iso, kin);
+  }
+}
+
+// Simple shear, geometrically linear: tau = mu gamma to tau_y = Y / sqrt(3), then the
+// hardening slope; N = (e1 e2 + e2 e1) / sqrt(2), |dev d| = gamma_dot / sqrt(2).
+template <int Dim>
+void j2_simple_shear() {
+  const double yield = 250e6, iso = 5e9, kin = 1e9;
+  const J2Plasticity<Dim> model(steel<Dim>(), Linear<Dim>{yield, iso, kin});
+  const double first_yield = yield / std::sqrt(3.0) / kShear;  // gamma at tau_y
+  ScalarPlasticity exact{
+      2 * kShear, std::sqrt(2.0 / 3.0), 2.0 / 3.0, std::sqrt(2.0 / 3.0), yield, iso,
+      kin,        1.0 / std::sqrt(2.0)};
+  PlasticState state;
+  StressVector<Dim> stress{};
+  double gamma = 0.0;
+  for (double target : {5 * first_yield, 1 * first_yield, 8 * first_yield}) {
+    Matrix<Dim> g = Matrix<Dim>::Zero();
+    g(0, 1) = (target - gamma) / 1e-3;
+    stress = drive<Dim>(model, stress, state, g, 1e-3, 33);
+    exact.advance(target - gamma);
+    gamma = target;
+    EXPECT_NEAR(to_tensor<Dim>(stress)(0, 1), exact.s / std::sqrt(2.0), 1e-10 * yield)
+        << "gamma " << gamma;
+    EXPECT_NEAR(stress[0], 0.0, 1e-10 * yield);
+    EXPECT_NEAR(state.equivalent_plastic_strain, exact.eps, 1e-10 * first_yield);
+  }
+}
+
+TEST(J2Plasticity, SimpleShearMatchesTheClosedForm) {
+  j2_simple_shear<2>();
+  j2_simple_shear<3>();
+}
+
+// The plastic work of a perfectly plastic shear is tau_y times the plastic shear strain.
+TEST(J2Plasticity, PlasticWorkOfPerfectPlasticity) {
+  const double yield = 250e6;
+  const J2Plasticity<3> model(steel<3>(), Linear<3>{yield, 0.0, 0.0});
+  PlasticState state;
+  Matrix<3> g = Matrix<3>::Zero();
+  const double gamma = 0.05;
+  g(0, 1) = gamma / 1e-3;
+  drive<3>(model, StressVector<3>{}, state, g, 1e-3, 50);
+  const double tau = yield / std::sqrt(3.0), plastic_gamma = gamma - tau / kShear;
+  EXPECT_NEAR(state.plastic_work, tau * plastic_gamma, 1e-9 * tau * plastic_gamma);
+  EXPECT_NEAR(state.equivalent_plastic_strain, plastic_gamma / std::sqrt(3.0), 1e-12);
+}
+
+// Johnson-Cook without rate and heat on a radial path: 3 mu (e - eps_p) = A + B eps_p^n
+// (e the equivalent total strain) at every step, whatever the step size.
+TEST(JohnsonCook, RadialPathFollowsTheHardeningCurve) {
+  J2Plasticity<3>::JohnsonCook jc;
+  jc.a = 90e6, jc.b = 292e6, jc.n = 0.31;  // copper (Johnson & Cook 1983)
+  const J2Plasticity<3> model(steel<3>(), jc);
+  for (int steps : {3, 200}) {
+    PlasticState state = model.initial_state();
+    const double strain = 0.2,
+                 equivalent = 2.0 / 3.0 * strain;  // uniaxial strain: e_eq = 2/3 eps_xx
+    const StressVector<3> stress =
+        drive<3>(model, StressVector<3>{}, state, uniaxial_strain_rate<3>(strain), 1.0, steps);
+    const double eps = state.equivalent_plastic_strain;
+    const double q = std::abs(stress[0] - stress[1]);
+    EXPECT_NEAR(q, jc.a + jc.b * std::pow(eps, jc.n), 1e-9 * q) << steps;
+    EXPECT_NEAR(q, 3 * kShear * (equivalent - eps), 1e-9 * q) << steps;
+  }
+}
+
+// Rate and temperature: each plastic step ends on Y(eps_p, d eps_p / dt, T^n); the
+// temperature rises by chi W_p / (rho c_v); at the melt temperature the strength is 0.
+TEST(JohnsonCook, RateAndThermalTermsHoldAtEveryStep) {
+  J2Plasticity<3>::JohnsonCook jc;
+  jc.a = 90e6, jc.b = 292e6, jc.n = 0.31, jc.c = 0.025, jc.reference_rate = 1.0;
+  jc.thermal = true, jc.room_temperature = 298, jc.melt_temperature = 1356, jc.m = 1.09;
+  jc.specific_heat = 383, jc.taylor_quinney = 0.9;
+  const J2Plasticity<3> model(steel<3>(), jc);
+  PlasticState state = model.initial_state();
+  StressVector<3> stress{};
+  const double dt = 1e-6;
+  const Matrix<3> g = uniaxial_strain_rate<3>(2e3);
+  int plastic_steps = 0;
+  for (int n = 0; n < 300; ++n) {
+    const PlasticState before = state;
+    stress = model.update_stress({stress, stress, g, dt, false}, state);
+    if (!state.yielding) continue;
+    ++plastic_steps;
+    const double increment = state.equivalent_plastic_strain - before.equivalent_plastic_strain;
+    const double q = std::abs(stress[0] - stress[1]);
+    EXPECT_NEAR(
+        q, model.yield_stress(state.equivalent_plastic_strain, increment / dt, before.temperature),
+        1e-9 * q);
+    const double work = state.plastic_work - before.plastic_work;
+    EXPECT_NEAR(work, q * increment, 1e-9 * work);  // sigma : d eps^p = q d eps_p for J2
+    EXPECT_NEAR(state.temperature - before.temperature,
+                jc.taylor_quinney * work / (kDensity * jc.specific_heat),
+                1e-12 * state.temperature);
+  }
+  EXPECT_GT(plastic_steps, 200);
+  EXPECT_GT(state.temperature, jc.room_temperature + 1.0);
+  EXPECT_EQ(model.yield_stress(0.5, 1.0, jc.melt_temperature), 0.0);
+}
+
+// Perzyna (N = 1, no hardening), strain held after an overstressed step: each step
+// relaxes the overstress by the backward-Euler factor 1 / (1 + 3 mu fluidity dt / Y),
+// exactly; a large fluidity is the rate-independent model.
+TEST(Perzyna, RelaxationFollowsTheImplicitStep) {
+  const double yield = 250e6, fluidity = 50.0, dt = 1e-7;
+  const J2Plasticity<3> viscous(steel<3>(), Linear<3>{yield, 0.0, 0.0},
+                                J2Plasticity<3>::Perzyna{fluidity, 1.0});
+  PlasticState state;
+  StressVector<3> stress =
+      drive<3>(viscous, StressVector<3>{}, state, uniaxial_strain_rate<3>(0.01 / 1e-4), 1e-4, 1);
+  double over = std::abs(stress[0] - stress[1]) - yield;
+  ASSERT_GT(over, 0.0);
+  const double factor = 1.0 / (1.0 + 3.0 * kShear * fluidity * dt / yield);
+  for (int n = 0; n < 50; ++n) {
+    stress = viscous.update_stress({stress, stress, Matrix<3>::Zero(), dt, false}, state);
+    const double next = std::abs(stress[0] - stress[1]) - yield;
+    EXPECT_NEAR(next, over * factor, 1e-9 * yield);
+    over = next;
+  }
+  const J2Plasticity<3> stiff(steel<3>(), Linear<3>{yield, 1e9, 0.0},
+                              J2Plasticity<3>::Perzyna{1e14, 1.0});
+  const J2Plasticity<3> rate_independent(steel<3>(), Linear<3>{yield, 1e9, 0.0});
+  PlasticState a, b;
+  const auto sa = drive<3>(stiff, StressVector<3>{}, a, uniaxial_strain_rate<3>(10.0), 1e-3, 20);
+  const auto sb =
+      drive<3>(rate_independent, StressVector<3>{}, b, uniaxial_strain_rate<3>(10.0), 1e-3, 20);
+  EXPECT_NEAR(sa[0], sb[0], 1e-6 * yield);
+}
+
+// Drucker-Prager: hydrostatic tension to the apex p = xi c / eta (associated and
+// non-associated), or to a lower tension cut-off; the stress stays there.
+TEST(DruckerPrager, HydrostaticTensionStopsAtTheApexOrTheCutoff) {
+  for (double psi : {0.0, 10.0, 30.0})
+    for (double cutoff : {std::numeric_limits<double>::infinity(), 20e3}) {
+      DruckerPrager<3>::Parameters p;
+      p.cohesion = 50e3, p.friction_angle = 30.0, p.dilation_angle = psi, p.tension_cutoff = cutoff;
+      const DruckerPrager<3> model(LinearElastic<3>(1e8, 0.3, 2000.0), p);
+      const double apex = model.xi() * p.cohesion / model.eta();
+      const double limit = std::min(apex, cutoff);
+      PlasticState state;
+      const StressVector<3> stress =
+          drive<3>(model, StressVector<3>{}, state, Matrix<3>::Identity() * 0.01, 1.0, 13);
+      SCOPED_TRACE(testing::Message() << "psi " << psi << " cutoff " << cutoff);
+      for (int d = 0; d < 3; ++d) EXPECT_NEAR(stress[d], limit, 1e-9 * limit);
+      for (int d = 3; d < 6; ++d) EXPECT_NEAR(stress[d], 0.0, 1e-9 * limit);
+      EXPECT_TRUE(state.yielding);
+      // The plastic volumetric strain is what the elastic bulk did not take.
+      const double volumetric = 0.03 - limit / (1e8 / (3 * (1 - 0.6)));  // total minus elastic
+      EXPECT_NEAR(state.plastic_work, limit * volumetric, 1e-9 * limit * volumetric);
+    }
+}
+
+// Drucker-Prager, uniaxial strain compression (perfectly plastic, phi 20, psi 5), plane
+// strain and 3D: elastic to sqrt(J2) + eta p = xi c, then along the surface with
+// d lambda = (-(2G / sqrt 3) + eta K) d eps / (G + K eta eta_bar); closed form at the end.
+template <int Dim>
+void dp_uniaxial_compression(DruckerPrager<3>::Cone cone3) {
+  using Cone = typename DruckerPrager<Dim>::Cone;
+  typename DruckerPrager<Dim>::Parameters p;
+  p.cohesion = 50e3, p.friction_angle = 20.0, p.dilation_angle = 5.0;
+  p.cone = static_cast<Cone>(static_cast<int>(cone3));
+  const double young = 1e8, nu = 0.3;
+  const DruckerPrager<Dim> model(LinearElastic<Dim>(young, nu, 2000.0, PlaneMode::plane_strain), p);
+  const double g = young / (2 * (1 + nu)), k = young / (3 * (1 - 2 * nu));
+  const double eta = model.eta(), xi = model.xi(), eta_bar = model.eta_bar();
+  const double rise = 2 * g / std::sqrt(3.0) - eta * k;  // d f / d(-eps) while elastic
+  ASSERT_GT(rise, 0.0);
+  const double first_yield = -xi * p.cohesion / rise;
+  for (int steps : {1, 9, 250}) {
+    const double strain = 7 * first_yield;
+    PlasticState state;
+    const StressVector<Dim> stress = drive<Dim>(model, StressVector<Dim>{}, state,
+                                                uniaxial_strain_rate<Dim>(strain), 1.0, steps);
+    const double plastic = strain - first_yield;  // < 0
+    const double lambda = (-(2 * g / std::sqrt(3.0)) + eta * k) * plastic / (g + k * eta * eta_bar);
+    const double root_j2 = -(2 * g / std::sqrt(3.0)) * strain - g * lambda;
+    const double mean = k * strain - k * eta_bar * lambda;
+    SCOPED_TRACE(testing::Message() << "steps " << steps);
+    EXPECT_NEAR(root_j2 + eta * mean - xi * p.cohesion, 0.0, 1e-9 * p.cohesion);
+    EXPECT_NEAR(stress[0], mean - 2 / std::sqrt(3.0) * root_j2, 1e-9 * std::abs(mean));
+    EXPECT_NEAR(stress[1], mean + root_j2 / std::sqrt(3.0), 1e-9 * std::abs(mean));
+    EXPECT_NEAR(state.equivalent_plastic_strain, xi * lambda, 1e-9 * xi * lambda);
+  }
+}
+
+TEST(DruckerPrager, UniaxialCompressionMatchesTheClosedForm) {
+  using Cone = DruckerPrager<3>::Cone;
+  for (Cone cone : {Cone::plane_strain, Cone::compression, Cone::extension}) {
+    dp_uniaxial_compression<2>(cone);
+    dp_uniaxial_compression<3>(cone);
+  }
+}
+
+// phi = 0 in plane strain is Tresca with c: simple shear (geometrically linear) yields at
+// tau = c and hardens with slope G H / (G + H); unloading is elastic.
+TEST(DruckerPrager, TrescaLimitInSimpleShear) {
+  DruckerPrager<2>::Parameters p;
+  p.cohesion = 40e3, p.friction_angle = 0.0, p.dilation_angle = 0.0, p.hardening = 2e6;
+  const double young = 1e8, nu = 0.45, g = young / (2 * (1 + nu));
+  const DruckerPrager<2> model(LinearElastic<2>(young, nu, 1800.0, PlaneMode::plane_strain), p);
+  EXPECT_DOUBLE_EQ(model.xi(), 1.0);
+  EXPECT_DOUBLE_EQ(model.eta(), 0.0);
+  PlasticState state;
+  Matrix<2> grad = Matrix<2>::Zero();
+  const double gamma_y = p.cohesion / g, gamma = 10 * gamma_y;
+  grad(0, 1) = gamma;
+  StressVector<2> stress = drive<2>(model, StressVector<2>{}, state, grad, 1.0, 17);
+  const double tau = p.cohesion + g * p.hardening / (g + p.hardening) * (gamma - gamma_y);
+  EXPECT_NEAR(stress[2], tau, 1e-9 * tau);
+  EXPECT_NEAR(stress[0], 0.0, 1e-9 * tau);
+  grad(0, 1) = -gamma_y;
+  stress = drive<2>(model, stress, state, grad, 1.0, 5);
+  EXPECT_NEAR(stress[2], tau - p.cohesion, 1e-9 * tau);
+  EXPECT_FALSE(state.yielding);
+}
+
+// Perzyna on the cone: each viscoplastic step satisfies f = xi c0 (dgamma / (dt fluidity))^(1/N).
+TEST(DruckerPrager, PerzynaOverstressOnTheCone) {
+  DruckerPrager<3>::Parameters p;
+  p.cohesion = 50e3, p.friction_angle = 25.0, p.dilation_angle = 25.0;
+  const double fluidity = 100.0, exponent = 2.0, dt = 1e-5;
+  const DruckerPrager<3> model(LinearElastic<3>(1e8, 0.3, 2000.0), p,
+                               DruckerPrager<3>::Perzyna{fluidity, exponent});
+  PlasticState state;
+  StressVector<3> stress{};
+  Matrix<3> grad = Matrix<3>::Zero();
+  grad(0, 1) = 50.0;
+  int viscous = 0;
+  for (int n = 0; n < 100; ++n) {
+    const PlasticState before = state;
+    stress = model.update_stress({stress, stress, grad, dt, false}, state);
+    if (!state.yielding) continue;
+    ++viscous;
+    const double dgamma =
+        (state.equivalent_plastic_strain - before.equivalent_plastic_strain) / model.xi();
+    const double f = model.yield_function(to_tensor<3>(stress), 0.0);
+    EXPECT_NEAR(f, model.xi() * p.cohesion * std::pow(dgamma / (dt * fluidity), 1.0 / exponent),
+                1e-8 * p.cohesion);
+  }
+  EXPECT_GT(viscous, 10);
+}
+
+TEST(Plasticity, RefusesBadParametersWithTheKeyAndTheFix) {
+  const auto message = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message([] {
+              J2Plasticity<3>(steel<3>(), Linear<3>{-1.0, 0.0, 0.0});
+            }).find("yield_stress = -1"),
+            std::string::npos);
+  EXPECT_NE(message([] {
+              J2Plasticity<2>(LinearElastic<2>(1e9, 0.3, 1.0, PlaneMode::plane_stress),
+                              Linear<2>{1e6, 0.0, 0.0});
+            }).find("plane = \"strain\""),
+            std::string::npos);
+  DruckerPrager<3>::Parameters p;
+  p.cohesion = 1e4, p.friction_angle = 20, p.dilation_angle = 30;
+  EXPECT_NE(message([&] {
+              DruckerPrager<3>(LinearElastic<3>(1e8, 0.3, 1.0), p);
+            }).find("dilation_angle = 30"),
+            std::string::npos);
+  J2Plasticity<3>::JohnsonCook jc;
+  jc.a = 1e8, jc.thermal = true, jc.melt_temperature = 200, jc.room_temperature = 300;
+  EXPECT_NE(message([&] { J2Plasticity<3>(steel<3>(), jc); }).find("melt_temperature"),
+            std::string::npos);
+}
+
+}  // namespace
