@@ -1,6 +1,6 @@
 // Boundary conditions on real particles (seed eqs. 1c-1d; docs/method.md section 4).
 // A condition prescribes either the velocity vector or the traction vector
-// t = sigma . n. Component k of the prescribed vector at particle I and time t is
+// t = sigma . n, or (symmetry) the normal velocity and the tangential traction, both zero. Component k of the prescribed vector at particle I and time t is
 //   time[k](t) * profile(x_I^0)[k],
 // a time function times a spatial profile evaluated once at the particle's initial
 // position (uniform by default; the cantilever's parabolic shear is a profile).
@@ -20,7 +20,9 @@ namespace tsph {
 
 template <int Dim>
 struct BoundaryCondition {
-  enum class Kind { velocity, traction };
+  /// symmetry: zero normal velocity and zero tangential traction on a plane (a roller,
+  /// a frictionless rigid wall; issue 16), the plane's normal the particles' face normal.
+  enum class Kind { velocity, traction, symmetry };
   using Profile = std::function<Vector<Dim>(const Vector<Dim>&)>;
 
   Kind kind = Kind::traction;
@@ -58,6 +60,10 @@ struct BoundaryCondition {
   static BoundaryCondition traction(std::array<TimeFunction, Dim> components, std::string name,
                                     Profile profile = uniform()) {
     return {Kind::traction, std::move(components), std::move(profile), std::move(name), {}};
+  }
+  /// A symmetry plane (see Kind::symmetry).
+  static BoundaryCondition symmetry(std::string name) {
+    return {Kind::symmetry, filled(TimeFunction::constant(0.0)), uniform(), std::move(name), {}};
   }
   /// Zero traction.
   static BoundaryCondition free(std::string name) {

@@ -89,6 +89,17 @@ class ParticleSet {
   std::vector<std::int32_t> boundary;
   /// User group number (from a particle file; 0 by default), for region selection. Optional.
   std::vector<std::int32_t> group;
+  /// The internal variables of a plastic material model (engine/material/plastic_state.hpp),
+  /// held by the real set of a plastic run only (carry_plastic_fields; 73 B per particle
+  /// in 3D): the equivalent plastic strain, the plastic work per unit volume (J/m^3),
+  /// the temperature (K, Johnson-Cook), the back stress (kinematic hardening; the stress
+  /// components' order) and whether the last update was plastic (0/1). On demand: empty
+  /// unless carried, and `resize` does not create them.
+  std::vector<double> plastic_strain;
+  std::vector<double> plastic_work;
+  std::vector<double> temperature;
+  std::array<std::vector<double>, stress_count> back_stress;
+  std::vector<std::uint8_t> yielding;
 
   static constexpr std::int32_t kNoBoundary = -1;
 
@@ -116,6 +127,28 @@ class ParticleSet {
     release(id);
     release(boundary);
     release(group);
+    release_plastic_fields();
+  }
+
+  /// Whether the set holds the plastic models' internal variables.
+  bool carries_plastic_fields() const { return plastic_strain.size() == size() && size() > 0; }
+  /// Allocates the plastic fields (zero; the temperature at `temperature0`) unless held.
+  void carry_plastic_fields(double temperature0) {
+    if (carries_plastic_fields()) return;
+    const std::size_t n = size();
+    plastic_strain.assign(n, 0.0);
+    plastic_work.assign(n, 0.0);
+    temperature.assign(n, temperature0);
+    for (auto& a : back_stress) a.assign(n, 0.0);
+    yielding.assign(n, 0);
+  }
+  void release_plastic_fields() {
+    auto release = [](auto& field) { std::decay_t<decltype(field)>().swap(field); };
+    release(plastic_strain);
+    release(plastic_work);
+    release(temperature);
+    for (auto& a : back_stress) release(a);
+    release(yielding);
   }
 
   /// Throws std::invalid_argument (naming `who`) unless every field holds size()
@@ -147,6 +180,11 @@ class ParticleSet {
     f(id);
     f(boundary);
     f(group);
+    f(plastic_strain);
+    f(plastic_work);
+    f(temperature);
+    for (auto& a : back_stress) f(a);
+    f(yielding);
   }
 
   /// Resizes every field; new particles are zeroed, ids numbered, unbounded. Optional
@@ -154,7 +192,7 @@ class ParticleSet {
   void resize(std::size_t n) {
     const std::size_t old = size();
     for_each_field([&](auto& field) {
-      if (old == 0 || !field.empty()) field.resize(n);
+      if ((old == 0 && !is_on_demand_field(field)) || !field.empty()) field.resize(n);
     });
     for (std::size_t i = old; i < n && i < id.size(); ++i) id[i] = static_cast<std::uint32_t>(i);
     for (std::size_t i = old; i < n && i < boundary.size(); ++i) boundary[i] = kNoBoundary;
@@ -201,7 +239,15 @@ class ParticleSet {
           static_cast<const void*>(&field) == &displacement[d])
         return true;
     return static_cast<const void*>(&field) == &id || static_cast<const void*>(&field) == &boundary ||
-           static_cast<const void*>(&field) == &group;
+           static_cast<const void*>(&field) == &group || is_on_demand_field(field);
+  }
+  /// Whether `field` is one of the plastic fields (created by carry_plastic_fields only).
+  template <class Field>
+  bool is_on_demand_field(const Field& field) const {
+    const void* f = &field;
+    for (const auto& a : back_stress)
+      if (f == &a) return true;
+    return f == &plastic_strain || f == &plastic_work || f == &temperature || f == &yielding;
   }
 };
 

@@ -142,12 +142,12 @@ class TaylorSph {
   }
 
  private:
-  /// The two runtime choices of the loops, each dispatched once here: f(kernel, model).
+  /// The kernel, the loops' one runtime choice, dispatched once here: f(kernel, material).
+  /// The material dispatches its model per particle (elastic inline, plastic out of
+  /// line: material/material.hpp), so the stages are compiled once per kernel.
   template <class F>
   void visit_stages(F&& f) {
-    state_.material.visit([&](const auto& model) {
-      visit_kernel<Dim>(state_.settings.kernel, [&](const auto& kernel) { f(kernel, model); });
-    });
+    visit_kernel<Dim>(state_.settings.kernel, [&](const auto& kernel) { f(kernel, state_.material); });
   }
 
   SolverState<Dim> state_;

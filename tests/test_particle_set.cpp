@@ -34,7 +34,8 @@ TYPED_TEST_SUITE(ParticleSetTest, Dimensions, DimName);
 /// (Dim each), stress, then mass, density, volume, id, boundary, group. A new field must
 /// be added here and to expect_same_particle.
 template <int Dim>
-constexpr int kFieldCount = 4 * Dim + stress_component_count<Dim> + 6;
+constexpr int kFieldCount = 4 * Dim + stress_component_count<Dim> + 6 +
+                            stress_component_count<Dim> + 4;  // the plastic fields: back stress and four more
 
 /// A value that identifies (particle id, field number); exact in both double and int.
 double tag(std::uint32_t id, int field) { return 1000.0 * field + id + 1.0; }
@@ -73,6 +74,13 @@ void expect_same_particle(const ParticleSet<Dim>& a, std::size_t p, const Partic
   EXPECT_EQ(a.id[p], b.id[q]);
   EXPECT_EQ(a.boundary[p], b.boundary[q]);
   EXPECT_EQ(a.group[p], b.group[q]);
+  if (a.carries_plastic_fields()) {
+    EXPECT_EQ(a.plastic_strain[p], b.plastic_strain[q]);
+    EXPECT_EQ(a.plastic_work[p], b.plastic_work[q]);
+    EXPECT_EQ(a.temperature[p], b.temperature[q]);
+    for (int s = 0; s < ParticleSet<Dim>::stress_count; ++s) EXPECT_EQ(a.back_stress[s][p], b.back_stress[s][q]);
+    EXPECT_EQ(a.yielding[p], b.yielding[q]);
+  }
 }
 
 // resize numbers new particles 0..n-1, marks them unbounded and zeroes every other field;
@@ -93,6 +101,12 @@ TYPED_TEST(ParticleSetTest, ResizeNumbersAndZeroesParticles) {
       EXPECT_EQ(set.displacement[d][i], 0.0);
     }
   }
+  // The plastic fields are on demand: resize does not create them.
+  EXPECT_FALSE(set.carries_plastic_fields());
+  EXPECT_TRUE(set.plastic_strain.empty() && set.yielding.empty() && set.back_stress[0].empty());
+  set.carry_plastic_fields(293.0);
+  EXPECT_EQ(set.temperature[4], 293.0);
+  EXPECT_EQ(set.plastic_strain[4], 0.0);
   set.mass[2] = 7.0;
   set.boundary[3] = 1;
   set.resize(9);
@@ -123,6 +137,7 @@ TYPED_TEST(ParticleSetTest, PermuteReordersEveryFieldConsistently) {
   const std::size_t n = 57;
   ParticleSet<dim> set;
   set.resize(n);
+  set.carry_plastic_fields(0.0);
   EXPECT_EQ(fill_with_tags(set), kFieldCount<dim>);
   const ParticleSet<dim> before = set;
 

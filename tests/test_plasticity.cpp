@@ -7,6 +7,7 @@
 // softening by the identities their steps satisfy; bad parameters refused.
 #include "engine/material/drucker_prager.hpp"
 #include "engine/material/j2_plasticity.hpp"
+#include "engine/validation/elastoplastic.hpp"
 
 #include <gtest/gtest.h>
 
@@ -20,6 +21,7 @@
 namespace {
 
 using namespace tsph;
+using elastoplastic::LinearHardeningPath;
 
 constexpr double kYoung = 200e9, kNu = 0.3, kDensity = 7800.0;
 const double kShear = kYoung / (2 * (1 + kNu));
@@ -45,39 +47,6 @@ StressVector<Dim> drive(const Model& model, StressVector<Dim> stress, PlasticSta
   return stress;
 }
 
-/// The closed-form response of linear isotropic + kinematic hardening to a monotonic
-/// change of a strain measure along a fixed deviatoric direction N: e = scale x the
-/// measure is the deviatoric strain along N (tensor norm), s and a the deviatoric and
-/// back stresses along N; elastic ds = modulus de (2 mu; 1D: E), the surface
-/// |s - a| = radius_factor (Y0 + H_iso eps_p), plastic (strain norm dg)
-/// ds = modulus (de - dg), da = kin_factor H_kin dg, deps_p = eps_factor dg.
-/// J2 in 2D/3D: radius and eps factors sqrt(2/3), kin factor 2/3; 1D: all 1.
-struct ScalarPlasticity {
-  double modulus, radius_factor, kin_factor, eps_factor, yield, iso, kin, scale;
-  double s = 0.0, a = 0.0, eps = 0.0;
-  void advance(double measure) {  // one monotonic segment, exactly
-    const double de = scale * measure;
-    const double sign = de > 0.0 ? 1.0 : -1.0;
-    const double radius = radius_factor * (yield + iso * eps);
-    // Elastic until s - a reaches sign * radius.
-    const double elastic_room =
-        (sign * radius - (s - a)) / modulus;  // strain to the surface, same sign as de
-    if (std::abs(elastic_room) >= std::abs(de)) {
-      s += modulus * de;
-      return;
-    }
-    s += modulus * elastic_room;
-    const double rest = std::abs(de - elastic_room);
-    // Consistency: d|xi| = (modulus rest - (modulus + kin_factor H_kin) dg) = radius_factor iso
-    // eps_factor dg.
-    const double dg =
-        modulus * rest / (modulus + kin_factor * kin + radius_factor * iso * eps_factor);
-    s += sign * (modulus * rest - modulus * dg);
-    a += sign * kin_factor * kin * dg;
-    eps += eps_factor * dg;
-  }
-};
-
 template <int Dim>
 Matrix<Dim> uniaxial_strain_rate(double rate) {
   Matrix<Dim> g = Matrix<Dim>::Zero();
@@ -96,12 +65,10 @@ void j2_uniaxial(double iso, double kin) {
   const double first_yield = Dim == 1 ? yield / kYoung : yield / (2.0 * kShear);
   const std::vector<double> targets = {6 * first_yield, -4 * first_yield, 2 * first_yield};
   for (int steps : {1, 7, 400}) {
-    ScalarPlasticity exact = Dim == 1
-                                 ? ScalarPlasticity{kYoung, 1.0, 1.0, 1.0, yield, iso, kin, 1.0}
-                                 : ScalarPlasticity{2 * kShear, std::sqrt(2.0 / 3.0),
-                                                    2.0 / 3.0,  std::sqrt(2.0 / 3.0),
-                                                    yield,      iso,
-                                                    kin,        std::sqrt(2.0 / 3.0)};
+    const double scale = Dim == 1 ? 1.0 : std::sqrt(2.0 / 3.0);  // strain along N per eps_xx
+    LinearHardeningPath exact = Dim == 1 ? LinearHardeningPath{kYoung, 1.0, 1.0, 1.0, yield, iso, kin}
+                                         : LinearHardeningPath{2 * kShear, std::sqrt(2.0 / 3.0), 2.0 / 3.0,
+                                                               std::sqrt(2.0 / 3.0), yield, iso, kin};
     PlasticState state = model.initial_state();
     StressVector<Dim> stress{};
     double strain = 0.0;
@@ -109,7 +76,7 @@ void j2_uniaxial(double iso, double kin) {
       const double duration = 1e-3;
       stress = drive<Dim>(model, stress, state,
                           uniaxial_strain_rate<Dim>((target - strain) / duration), duration, steps);
-      exact.advance(target - strain);
+      exact.advance(scale * (target - strain));
       strain = target;
       SCOPED_TRACE(testing::Message() << "steps " << steps << " strain " << strain);
       if constexpr (Dim == 1) {
@@ -124,6 +91,23 @@ void j2_uniaxial(double iso, double kin) {
       EXPECT_NEAR(state.equivalent_plastic_strain, exact.eps, 1e-10 * first_yield);
     }
     EXPECT_GT(state.plastic_work, 0.0);
+  }
+}
+
+// The closed-form helper of the validation suite (engine/validation/elastoplastic.hpp)
+// against the model on a monotonic uniaxial-strain path, in tension and compression.
+TEST(J2Plasticity, UniaxialStrainHelperMatchesTheModel) {
+  const double yield = 250e6, iso = 2e9, kin = 3e9;
+  const J2Plasticity<3> model(steel<3>(), Linear<3>{yield, iso, kin});
+  for (double strain : {0.01, -0.02, 0.0005}) {
+    PlasticState state;
+    const StressVector<3> stress = drive<3>(model, StressVector<3>{}, state, uniaxial_strain_rate<3>(strain), 1.0, 3);
+    double eps = 0.0;
+    const Eigen::Matrix3d exact = elastoplastic::j2_uniaxial_strain(kYoung, kNu, yield, iso, kin, strain, &eps);
+    EXPECT_NEAR(stress[0], exact(0, 0), 1e-10 * yield) << strain;
+    EXPECT_NEAR(stress[1], exact(1, 1), 1e-10 * yield) << strain;
+    EXPECT_NEAR(stress[2], exact(2, 2), 1e-10 * yield) << strain;
+    EXPECT_NEAR(state.equivalent_plastic_strain, eps, 1e-12) << strain;
   }
 }
 
@@ -143,9 +127,8 @@ void j2_simple_shear() {
   const double yield = 250e6, iso = 5e9, kin = 1e9;
   const J2Plasticity<Dim> model(steel<Dim>(), Linear<Dim>{yield, iso, kin});
   const double first_yield = yield / std::sqrt(3.0) / kShear;  // gamma at tau_y
-  ScalarPlasticity exact{
-      2 * kShear, std::sqrt(2.0 / 3.0), 2.0 / 3.0, std::sqrt(2.0 / 3.0), yield, iso,
-      kin,        1.0 / std::sqrt(2.0)};
+  // N = (e1 e2 + e2 e1) / sqrt(2): the strain along N is gamma / sqrt(2).
+  LinearHardeningPath exact{2 * kShear, std::sqrt(2.0 / 3.0), 2.0 / 3.0, std::sqrt(2.0 / 3.0), yield, iso, kin};
   PlasticState state;
   StressVector<Dim> stress{};
   double gamma = 0.0;
@@ -153,7 +136,7 @@ void j2_simple_shear() {
     Matrix<Dim> g = Matrix<Dim>::Zero();
     g(0, 1) = (target - gamma) / 1e-3;
     stress = drive<Dim>(model, stress, state, g, 1e-3, 33);
-    exact.advance(target - gamma);
+    exact.advance((target - gamma) / std::sqrt(2.0));
     gamma = target;
     EXPECT_NEAR(to_tensor<Dim>(stress)(0, 1), exact.s / std::sqrt(2.0), 1e-10 * yield)
         << "gamma " << gamma;
@@ -197,6 +180,11 @@ TEST(JohnsonCook, RadialPathFollowsTheHardeningCurve) {
     const double q = std::abs(stress[0] - stress[1]);
     EXPECT_NEAR(q, jc.a + jc.b * std::pow(eps, jc.n), 1e-9 * q) << steps;
     EXPECT_NEAR(q, 3 * kShear * (equivalent - eps), 1e-9 * q) << steps;
+    double exact_eps = 0.0;
+    const Eigen::Matrix3d exact = elastoplastic::johnson_cook_uniaxial_strain(kYoung, kNu, jc.a, jc.b, jc.n, strain, &exact_eps);
+    EXPECT_NEAR(stress[0], exact(0, 0), 1e-9 * std::abs(exact(0, 0))) << steps;
+    EXPECT_NEAR(stress[1], exact(1, 1), 1e-9 * std::abs(exact(0, 0))) << steps;
+    EXPECT_NEAR(eps, exact_eps, 1e-9 * eps) << steps;
   }
 }
 
@@ -307,15 +295,15 @@ void dp_uniaxial_compression(DruckerPrager<3>::Cone cone3) {
     PlasticState state;
     const StressVector<Dim> stress = drive<Dim>(model, StressVector<Dim>{}, state,
                                                 uniaxial_strain_rate<Dim>(strain), 1.0, steps);
-    const double plastic = strain - first_yield;  // < 0
-    const double lambda = (-(2 * g / std::sqrt(3.0)) + eta * k) * plastic / (g + k * eta * eta_bar);
-    const double root_j2 = -(2 * g / std::sqrt(3.0)) * strain - g * lambda;
-    const double mean = k * strain - k * eta_bar * lambda;
+    double plastic_strain = 0.0;
+    const Eigen::Matrix3d exact = elastoplastic::drucker_prager_uniaxial_compression(
+        young, nu, p.cohesion, eta, xi, eta_bar, strain, &plastic_strain);
     SCOPED_TRACE(testing::Message() << "steps " << steps);
-    EXPECT_NEAR(root_j2 + eta * mean - xi * p.cohesion, 0.0, 1e-9 * p.cohesion);
-    EXPECT_NEAR(stress[0], mean - 2 / std::sqrt(3.0) * root_j2, 1e-9 * std::abs(mean));
-    EXPECT_NEAR(stress[1], mean + root_j2 / std::sqrt(3.0), 1e-9 * std::abs(mean));
-    EXPECT_NEAR(state.equivalent_plastic_strain, xi * lambda, 1e-9 * xi * lambda);
+    EXPECT_NEAR(model.yield_function(exact, 0.0), 0.0, 1e-9 * p.cohesion);  // on the cone
+    EXPECT_NEAR(stress[0], exact(0, 0), 1e-9 * std::abs(exact(0, 0)));
+    EXPECT_NEAR(stress[1], exact(1, 1), 1e-9 * std::abs(exact(0, 0)));
+    EXPECT_NEAR(to_tensor<Dim>(stress)(2, 2), exact(2, 2), 1e-9 * std::abs(exact(0, 0)));
+    EXPECT_NEAR(state.equivalent_plastic_strain, plastic_strain, 1e-9 * plastic_strain);
   }
 }
 

@@ -107,6 +107,38 @@ LinearElastic<Dim> case_material(const CaseFile& c) {
                             Dim == 2 ? c.plane_mode : PlaneMode::plane_strain);
 }
 
+/// The case's material model (material.model, issue 16) around its elastic part.
+template <int Dim>
+Material<Dim> case_model(const CaseFile& c) {
+  const CaseFile::Plasticity& p = c.plasticity;
+  LinearElastic<Dim> elastic = case_material<Dim>(c);
+  if (p.model == "j2") {
+    std::optional<typename J2Plasticity<Dim>::Perzyna> perzyna;
+    if (p.fluidity > 0.0) perzyna = typename J2Plasticity<Dim>::Perzyna{p.fluidity, p.exponent};
+    return J2Plasticity<Dim>(elastic, typename J2Plasticity<Dim>::Linear{p.yield_stress, p.isotropic_hardening,
+                                                                         p.kinematic_hardening},
+                             perzyna);
+  }
+  if (p.model == "johnson_cook") {
+    typename J2Plasticity<Dim>::JohnsonCook jc;
+    jc.a = p.a, jc.b = p.b, jc.n = p.n, jc.c = p.c, jc.reference_rate = p.reference_rate;
+    jc.thermal = p.thermal, jc.room_temperature = p.room_temperature, jc.melt_temperature = p.melt_temperature;
+    jc.m = p.m, jc.specific_heat = p.specific_heat, jc.taylor_quinney = p.taylor_quinney;
+    return J2Plasticity<Dim>(elastic, jc);
+  }
+  if (p.model == "drucker_prager") {
+    typename DruckerPrager<Dim>::Parameters dp;
+    dp.cohesion = p.cohesion, dp.friction_angle = p.friction_angle, dp.dilation_angle = p.dilation_angle;
+    dp.hardening = p.hardening, dp.tension_cutoff = p.tension_cutoff;
+    using Cone = typename DruckerPrager<Dim>::Cone;
+    dp.cone = p.cone == "compression" ? Cone::compression : p.cone == "extension" ? Cone::extension : Cone::plane_strain;
+    std::optional<typename DruckerPrager<Dim>::Perzyna> perzyna;
+    if (p.fluidity > 0.0) perzyna = typename DruckerPrager<Dim>::Perzyna{p.fluidity, p.exponent};
+    return DruckerPrager<Dim>(elastic, dp, perzyna);
+  }
+  return elastic;
+}
+
 }  // namespace
 
 double case_wave_speed(const CaseFile& c) {
@@ -219,6 +251,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
     }
     if (s.type == "fixed") b.conditions.push_back(BoundaryCondition<Dim>::fixed(s.name));
     else if (s.type == "free") b.conditions.push_back(BoundaryCondition<Dim>::free(s.name));
+    else if (s.type == "symmetry") b.conditions.push_back(BoundaryCondition<Dim>::symmetry(s.name));
     else if (s.type == "velocity" && !s.velocity_gradient.empty()) {
       // v = value + G x along the exact affine motion (engine/affine_motion.hpp).
       Matrix<Dim> g;
@@ -283,7 +316,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.transpose_lists = c.transpose_lists;
   b.settings.neighbor_skin = c.neighbor_skin;
   b.settings.keep_virtual_fields = c.output_virtual;  // its frames write them (snapshot)
-  b.material.emplace(case_material<Dim>(c));
+  b.material.emplace(case_model<Dim>(c));
   b.wave_speed = case_wave_speed(c);
   b.dt = case_time_step(c);
   if (!c.force && b.dt > dx / b.wave_speed * (1.0 + 1e-12))

@@ -30,7 +30,7 @@ struct BuiltCase {
   ParticleSet<Dim> real, virtual_particles;
   std::vector<BoundaryCondition<Dim>> conditions;
   std::vector<std::pair<std::string, std::size_t>> boundary_counts;  ///< real particles per condition
-  std::optional<LinearElastic<Dim>> material;
+  std::optional<Material<Dim>> material;
   SolverSettings<Dim> settings;
   double dt = 0.0, wave_speed = 0.0;
   std::shared_ptr<const ExactSolution<Dim>> exact;  ///< null: the case names none

@@ -47,8 +47,8 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 }
 
 const std::vector<std::string>& known_output_fields() {
-  static const std::vector<std::string> fields = {"velocity", "stress",  "von_mises",
-                                                  "displacement", "density", "id", "exact"};
+  static const std::vector<std::string> fields = {"velocity", "stress",  "von_mises", "displacement",
+                                                  "density",  "id",      "exact",     "plastic"};
   return fields;
 }
 
@@ -137,6 +137,62 @@ CaseFile load_case_text(const std::string& text, const std::string& name, const 
 
 namespace {
 
+/// [material] model and the keys of that model (issue 16): the other models' keys are
+/// left unread, so that Table::finish reports them as unknown keys of this model.
+void read_plasticity(Table& m, CaseFile& c, Context& context) {
+  CaseFile::Plasticity& p = c.plasticity;
+  p.model = m.text("model", false, {"elastic", "j2", "johnson_cook", "drucker_prager"}).value_or("elastic");
+  const auto at_least = [](double minimum) { return [minimum](double v) { return v >= minimum; }; };
+  const std::string nonnegative = "must be at least 0";
+  if (p.model != "elastic" && c.dimension == 2 && c.plane_mode == PlaneMode::plane_stress)
+    context.invalid(m.get("model", false, ""), m.path("model"),
+                    "needs material.plane = \"strain\" in 2D (the plane-stress return mapping is not implemented)");
+  if (p.model == "drucker_prager" && c.dimension == 1)
+    context.invalid(m.get("model", false, ""), m.path("model"), "needs dimension = 2 or 3 (1D is uniaxial stress)");
+  const auto perzyna = [&] {
+    p.fluidity = m.real("fluidity", false, "100", positive, kPositive + " (the Perzyna fluidity, 1/s; leave it out "
+                                                                        "for a rate-independent model)").value_or(0.0);
+    p.exponent = m.real("exponent", false, "1", at_least(1.0), "must be at least 1 (the Perzyna exponent N)").value_or(1.0);
+    if (m.has("exponent") && !m.has("fluidity"))
+      context.invalid(m.get("exponent", false, ""), m.path("exponent"),
+                      "applies with material.fluidity (Perzyna viscoplasticity) only");
+  };
+  if (p.model == "j2") {
+    p.yield_stress = m.real("yield_stress", true, "400e6", positive, kPositive + " (the initial yield stress, Pa)").value_or(0.0);
+    p.isotropic_hardening = m.real("isotropic_hardening", false, "100e6", at_least(0.0), nonnegative + " (Pa)").value_or(0.0);
+    p.kinematic_hardening = m.real("kinematic_hardening", false, "0", at_least(0.0), nonnegative + " (Pa)").value_or(0.0);
+    perzyna();
+  } else if (p.model == "johnson_cook") {
+    p.a = m.real("A", true, "90e6", positive, kPositive + " (the initial yield stress A, Pa)").value_or(0.0);
+    p.b = m.real("B", false, "292e6", at_least(0.0), nonnegative + " (the hardening B, Pa)").value_or(0.0);
+    p.n = m.real("n", false, "0.31", positive, kPositive + " (the hardening exponent)").value_or(1.0);
+    p.c = m.real("C", false, "0.025", at_least(0.0), nonnegative + " (the strain-rate coefficient)").value_or(0.0);
+    p.reference_rate = m.real("reference_rate", false, "1", positive, kPositive + " (1/s)").value_or(1.0);
+    p.thermal = m.boolean("thermal").value_or(false);
+    if (p.thermal) {
+      p.room_temperature = m.real("room_temperature", false, "293", positive, kPositive + " (K)").value_or(293.0);
+      p.melt_temperature = m.real("melt_temperature", true, "1356", positive, kPositive + " (K)").value_or(0.0);
+      if (p.melt_temperature > 0.0 && !(p.melt_temperature > p.room_temperature))
+        context.invalid(m.get("melt_temperature", false, ""), m.path("melt_temperature"),
+                        "must be above room_temperature = " + format_number(p.room_temperature) + " K");
+      p.m = m.real("m", false, "1.09", positive, kPositive + " (the thermal exponent)").value_or(1.0);
+      p.specific_heat = m.real("specific_heat", true, "383", positive, kPositive + " (J/(kg K))").value_or(0.0);
+      p.taylor_quinney = m.real("taylor_quinney", false, "0.9", [](double v) { return v >= 0.0 && v <= 1.0; },
+                                "must lie in [0, 1]").value_or(0.9);
+    }
+  } else if (p.model == "drucker_prager") {
+    p.cohesion = m.real("cohesion", true, "50e3", positive, kPositive + " (Pa)").value_or(0.0);
+    p.friction_angle = m.real("friction_angle", false, "30", [](double v) { return v >= 0.0 && v < 90.0; },
+                              "must lie in [0, 90) degrees").value_or(0.0);
+    p.dilation_angle = m.real("dilation_angle", false, "0", [&](double v) { return v >= 0.0 && v <= p.friction_angle; },
+                              "must lie in [0, friction_angle = " + format_number(p.friction_angle) + "] degrees").value_or(0.0);
+    p.hardening = m.real("hardening", false, "0", at_least(0.0), nonnegative + " (Pa per unit plastic strain)").value_or(0.0);
+    p.tension_cutoff = m.real("tension_cutoff", false, "10e3", {}, "").value_or(std::numeric_limits<double>::infinity());
+    p.cone = m.text("cone", false, {"plane_strain", "compression", "extension"}).value_or("plane_strain");
+    perzyna();
+  }
+}
+
 CaseFile read_case(toml::table root, const std::string& path, const std::vector<std::string>& overrides) {
   Context context;
   context.file = path;
@@ -220,6 +276,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
       context.invalid(m.get("plane", false, ""), m.path("plane"), "applies to dimension = 2 only");
     c.plane_mode = plane.value_or("stress") == "strain" ? PlaneMode::plane_strain : PlaneMode::plane_stress;
     if (c.dimension == 3) c.plane_mode = PlaneMode::plane_strain;  // unused in 3D
+    read_plasticity(m, c, context);
     m.finish();
   }
   {  // [method]
@@ -292,7 +349,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
   for (Table b : top.tables("boundary")) {
     BoundarySpec s;
     s.name = b.text("name", true).value_or("");
-    s.type = b.text("type", true, {"fixed", "free", "velocity", "traction"}).value_or("");
+    s.type = b.text("type", true, {"fixed", "free", "velocity", "traction", "symmetry"}).value_or("");
     if (b.has("region") && b.get("region", false, "")->is_array()) {
       // A list of regions: their union.
       for (Table r : b.tables("region")) s.regions.push_back(read_region(r, dim));
@@ -431,6 +488,10 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.output_every = o.integer("every", false, "100", [](std::int64_t n) { return n >= 0; },
                                "must be >= 0 (steps; 0: only the listed times)").value_or(0);
     c.fields = o.strings("fields", known_output_fields()).value_or(known_output_fields());
+    if (o.has("fields") && c.has_field("plastic") && c.plasticity.model == "elastic")
+      context.invalid(o.get("fields", false, ""), o.path("fields"),
+                      "lists \"plastic\" (plastic_strain, plastic_work, temperature, yielding), which needs a "
+                      "plastic material.model (j2, johnson_cook, drucker_prager)");
     c.output_virtual = o.boolean("virtual").value_or(false);
     c.probe_every = o.integer("probe_every", false, "10", [](std::int64_t n) { return n >= 1; },
                               "must be >= 1 (steps)").value_or(1);

@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <stdexcept>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,20 @@ struct CaseFile {
   // [material]
   double young_modulus = 0.0, poisson_ratio = 0.0, density = 0.0;
   PlaneMode plane_mode = PlaneMode::plane_stress;
+  /// material.model and its parameters (issue 16; docs/cases.md, [material]): the keys of
+  /// the chosen model only. fluidity 0: rate independent (no Perzyna regularisation).
+  struct Plasticity {
+    std::string model = "elastic";  ///< elastic, j2, johnson_cook, drucker_prager
+    double yield_stress = 0.0, isotropic_hardening = 0.0, kinematic_hardening = 0.0;      // j2
+    double a = 0.0, b = 0.0, n = 1.0, c = 0.0, reference_rate = 1.0;                      // johnson_cook
+    bool thermal = false;
+    double room_temperature = 293.0, melt_temperature = 0.0, m = 1.0, specific_heat = 0.0, taylor_quinney = 0.9;
+    double cohesion = 0.0, friction_angle = 0.0, dilation_angle = 0.0, hardening = 0.0;  // drucker_prager
+    double tension_cutoff = std::numeric_limits<double>::infinity();
+    std::string cone = "plane_strain";
+    double fluidity = 0.0, exponent = 1.0;  // j2, drucker_prager: Perzyna
+  };
+  Plasticity plasticity;
 
   // [method]
   KernelKind kernel = KernelKind::cubic_spline;

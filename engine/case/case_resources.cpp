@@ -83,6 +83,7 @@ ResourceEstimate estimate(const CaseFile& c) {
     field("von_mises", 8.0);
     field("density", 8.0);
     field("id", 4.0);
+    if (real && c.plasticity.model != "elastic") field("plastic", 32.0, 4.0);
     if (real && c.has_field("exact")) {
       const double exact = c.exact == "bar" ? 2.0 : c.exact == "cantilever" ? 1.0 : 0.0;
       per_point += 8.0 * exact;

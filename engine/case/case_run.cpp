@@ -141,6 +141,12 @@ output::VtuFrame snapshot(const ParticleSet<Dim>& p, const CaseFile& c, const Bu
   }
   if (c.has_field("density")) f.arrays.push_back({"density", 1, p.density, {}, false});
   if (c.has_field("id")) f.arrays.push_back({"id", 1, {}, p.id, true});
+  if (c.has_field("plastic") && p.carries_plastic_fields()) {  // a plastic material's real set
+    f.arrays.push_back({"plastic_strain", 1, p.plastic_strain, {}, false});
+    f.arrays.push_back({"plastic_work", 1, p.plastic_work, {}, false});
+    f.arrays.push_back({"temperature", 1, p.temperature, {}, false});
+    f.arrays.push_back({"yielding", 1, std::vector<double>(p.yielding.begin(), p.yielding.end()), {}, false});
+  }
   if (b && b->exact && c.has_field("exact"))
     for (const auto& e : b->exact->fields()) {
       output::VtuArray a{"exact_" + e.name, 1, std::vector<double>(n), {}, false};

@@ -64,7 +64,8 @@ class DruckerPrager {
   DruckerPrager(LinearElastic<Dim> elastic, Parameters parameters,
                 std::optional<Perzyna> perzyna = std::nullopt)
       : elastic_(std::move(elastic)), p_(parameters), perzyna_(perzyna) {
-    static_assert(Dim >= 2, "Drucker-Prager needs two or three dimensions");
+    if constexpr (Dim == 1)
+      throw std::invalid_argument("material (drucker_prager): needs two or three dimensions (1D is uniaxial stress)");
     if constexpr (Dim == 2)
       if (elastic_.plane_mode() == PlaneMode::plane_stress)
         throw std::invalid_argument(
@@ -114,10 +115,14 @@ class DruckerPrager {
   }
 
   StressVector<Dim> update_stress(const StressUpdate<Dim>& in, PlasticState& state) const {
-    const StressVector<Dim> rate =
-        elastic_.stress_rate(in.velocity_gradient, in.rate_stress, in.objective);
+    const StressVector<Dim> rate = elastic_.stress_rate(in.velocity_gradient, in.rate_stress, in.objective);
     StressVector<Dim> trial;
     for (int m = 0; m < stress_component_count<Dim>; ++m) trial[m] = in.stress[m] + in.dt * rate[m];
+    return return_map(trial, state, in.dt);
+  }
+
+  /// Steps 1-3 of the file comment: the return of an elastic trial stress reached over dt.
+  StressVector<Dim> return_map(const StressVector<Dim>& trial, PlasticState& state, double dt) const {
     state.yielding = false;
     const Eigen::Matrix3d sigma = to_tensor<Dim>(trial);
     double mean = sigma.trace() / 3.0;
@@ -146,7 +151,7 @@ class DruckerPrager {
       if (!perzyna_) {
         dgamma = f_trial / slope_elastic;
       } else {
-        const double c0 = p_.cohesion, scale = in.dt * perzyna_->fluidity,
+        const double c0 = p_.cohesion, scale = dt * perzyna_->fluidity,
                      power = 1.0 / perzyna_->exponent;
         dgamma = decreasing_root(
             [&](double x, double& slope) {
@@ -171,7 +176,7 @@ class DruckerPrager {
           double viscous = 0.0, viscous_slope = 0.0;
           if (perzyna_) {
             const double power = 1.0 / perzyna_->exponent;
-            viscous = p_.cohesion * std::pow(alpha * x / xi_ / (in.dt * perzyna_->fluidity), power);
+            viscous = p_.cohesion * std::pow(alpha * x / xi_ / (dt * perzyna_->fluidity), power);
             viscous_slope = x > 0.0 ? power * viscous / x : 0.0;
           }
           slope = -bulk - beta * (alpha * p_.hardening + viscous_slope);

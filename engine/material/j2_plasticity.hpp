@@ -154,16 +154,21 @@ class J2Plasticity {
     if (in.objective && has_kinematic())
       state.back_stress =
           jaumann_rotated(state.back_stress, embed_gradient<Dim>(in.velocity_gradient), in.dt);
+    return return_map(trial, state, in.dt);
+  }
+
+  /// Steps 2-3 of the file comment: the return of an elastic trial stress reached over dt.
+  StressVector<Dim> return_map(const StressVector<Dim>& trial, PlasticState& state, double dt) const {
     state.yielding = false;
     if constexpr (Dim == 1) {
       const double relative = trial[0] - state.back_stress(0, 0);
       const double q_trial = std::abs(relative);
-      const double increment = plastic_increment(q_trial, elastic_.young_modulus(), state, in.dt);
+      const double increment = plastic_increment(q_trial, elastic_.young_modulus(), state, dt);
       if (increment <= 0.0) return trial;
       const double direction = relative > 0.0 ? 1.0 : -1.0;
       StressVector<Dim> updated{trial[0] - elastic_.young_modulus() * increment * direction};
       state.back_stress(0, 0) += linear_.kinematic_modulus * increment * direction;
-      finish(state, increment, std::abs(updated[0]) * increment, in.dt);
+      finish(state, increment, updated[0] * direction * increment);
       return updated;
     } else {
       const Eigen::Matrix3d sigma = to_tensor<Dim>(trial);
@@ -172,13 +177,13 @@ class J2Plasticity {
       const double norm = relative.norm();
       const double q_trial = std::sqrt(1.5) * norm;
       const double twice_shear = 2.0 * elastic_.shear_modulus();
-      const double increment = plastic_increment(q_trial, 1.5 * twice_shear, state, in.dt);
+      const double increment = plastic_increment(q_trial, 1.5 * twice_shear, state, dt);
       if (increment <= 0.0) return trial;
       const Eigen::Matrix3d direction = relative / norm;
       const double dgamma = std::sqrt(1.5) * increment;  // |d eps^p| = sqrt(3/2) de
       const Eigen::Matrix3d dev = deviator(sigma) - twice_shear * dgamma * direction;
       state.back_stress += (2.0 / 3.0) * linear_.kinematic_modulus * dgamma * direction;
-      finish(state, increment, dgamma * dev.cwiseProduct(direction).sum(), in.dt);
+      finish(state, increment, dgamma * dev.cwiseProduct(direction).sum());
       return from_tensor<Dim>(dev + mean * Eigen::Matrix3d::Identity());
     }
   }
@@ -221,8 +226,7 @@ class J2Plasticity {
   }
 
   /// Records a plastic step: the strain, the work, and Johnson-Cook heating.
-  void finish(PlasticState& state, double increment, double work, double dt) const {
-    (void)dt;
+  void finish(PlasticState& state, double increment, double work) const {
     state.yielding = true;
     state.equivalent_plastic_strain += increment;
     state.plastic_work += work;

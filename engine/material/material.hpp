@@ -1,7 +1,10 @@
 // The material interface (docs/architecture.md, "The material interface").
 //
 // A material model M<Dim> is a small evaluator with value semantics that provides
-//   StressVector<Dim> update_stress(const StressUpdate<Dim>& in) const;
+//   StressVector<Dim> update_stress(const StressUpdate<Dim>& in) const;   (elastic)
+//   StressVector<Dim> update_stress(const StressUpdate<Dim>& in, PlasticState& state) const;
+//   StressVector<Dim> return_map(const StressVector<Dim>& trial, PlasticState& state, double dt) const;
+//       (plastic: material/j2_plasticity.hpp, drucker_prager.hpp)
 //       sigma^{n+1} from the particle's state sigma^n and the velocity gradient L (rate
 //       of deformation and spin), the objective (Jaumann) rate inside the model;
 //   double strain_energy_density(const StressVector<Dim>& stress) const;
@@ -10,14 +13,23 @@
 //       characteristic boundary (boundary/characteristics.hpp), the hourglass
 //       stiffness's modulus.
 // Internal variables of a model (the plastic strain of a J2 or Drucker-Prager model)
-// are per-particle fields beside the stress; linear elasticity has none.
+// are per-particle fields beside the stress (ParticleSet::plastic_strain, ...; the real
+// set only: a virtual particle's state at n+1/2 is interpolated from its real
+// neighbours); linear elasticity has none.
 //
-// Material<Dim> holds one of the models (a variant) and is dispatched once outside the
-// particle loops (visit), like visit_kernel, so the loops stay monomorphic. A new model
-// is one alternative of Material::Model and one file in engine/material/.
+// Material<Dim> holds one of the models (a variant). The loops take the Material itself
+// and call update_stress per particle: the elastic model inline (a copy of the model's
+// elastic part is kept beside the variant), the plastic ones (issue 16) out of line with
+// the particle's PlasticState, so that the stages are compiled once per kernel, not per
+// kernel and model. visit(f) calls f with the model's own type, once outside the loops
+// (energies). A new model is one alternative of Material::Model and one file in
+// engine/material/.
 #pragma once
 
+#include "engine/material/drucker_prager.hpp"
+#include "engine/material/j2_plasticity.hpp"
 #include "engine/material/linear_elastic.hpp"
+#include "engine/material/plastic_state.hpp"
 #include "engine/material/stress.hpp"
 #include "engine/material/stress_update.hpp"
 
@@ -29,9 +41,12 @@ namespace tsph {
 template <int Dim>
 class Material {
  public:
-  using Model = std::variant<LinearElastic<Dim>>;
+  using Model = std::variant<LinearElastic<Dim>, J2Plasticity<Dim>, DruckerPrager<Dim>>;
 
-  Material(LinearElastic<Dim> model) : model_(std::move(model)) {}  // NOLINT: implicit on purpose
+  // Implicit on purpose: a model is a Material.
+  Material(LinearElastic<Dim> model) : model_(std::move(model)), elastic_(std::get<0>(model_)) {}  // NOLINT
+  Material(J2Plasticity<Dim> model) : model_(std::move(model)), elastic_(std::get<1>(model_).elastic()) {}  // NOLINT
+  Material(DruckerPrager<Dim> model) : model_(std::move(model)), elastic_(std::get<2>(model_).elastic()) {}  // NOLINT
 
   /// Calls f(model) with the model's own type (once per loop, not per particle).
   template <class F>
@@ -39,14 +54,43 @@ class Material {
     return std::visit(std::forward<F>(f), model_);
   }
   const Model& model() const { return model_; }
+  /// A model with internal variables (the real set then carries the plastic fields).
+  bool plastic() const { return model_.index() != 0; }
+  /// The case-file name of the model: elastic, j2, johnson_cook, drucker_prager.
+  const char* name() const {
+    if (model_.index() == 0) return "elastic";
+    if (const auto* j2 = std::get_if<1>(&model_)) return j2->is_johnson_cook() ? "johnson_cook" : "j2";
+    return "drucker_prager";
+  }
+  /// A virgin particle's internal variables.
+  PlasticState initial_state() const {
+    return visit([](const auto& m) {
+      if constexpr (requires { m.initial_state(); }) return m.initial_state();
+      else return PlasticState{};
+    });
+  }
+
+  /// The elastic stress update (material/stress_update.hpp); elastic models only.
+  StressVector<Dim> update_stress(const StressUpdate<Dim>& in) const { return elastic_.update_stress(in); }
+  /// The stress update of a plastic model with the particle's state, updated in place.
+  [[gnu::noinline]] StressVector<Dim> update_stress(const StressUpdate<Dim>& in, PlasticState& state) const {
+    return visit([&](const auto& m) -> StressVector<Dim> {
+      if constexpr (requires { m.update_stress(in, state); }) return m.update_stress(in, state);
+      else return m.update_stress(in);
+    });
+  }
+  /// The plastic correction alone of a stress reached elastically over dt (the
+  /// characteristic boundary's): the return mapping with the particle's state.
+  [[gnu::noinline]] StressVector<Dim> return_map(const StressVector<Dim>& trial, PlasticState& state, double dt) const {
+    return visit([&](const auto& m) -> StressVector<Dim> {
+      if constexpr (requires { m.return_map(trial, state, dt); }) return m.return_map(trial, state, dt);
+      else return trial;
+    });
+  }
 
   /// The elastic part of the model (see the file comment).
-  const LinearElastic<Dim>& elastic() const {
-    return std::visit([](const auto& m) -> const LinearElastic<Dim>& { return m.elastic(); }, model_);
-  }
-  double strain_energy_density(const StressVector<Dim>& stress) const {
-    return visit([&](const auto& m) { return m.strain_energy_density(stress); });
-  }
+  const LinearElastic<Dim>& elastic() const { return elastic_; }
+  double strain_energy_density(const StressVector<Dim>& stress) const { return elastic_.strain_energy_density(stress); }
 
   // The elastic constants, as callers of LinearElastic read them.
   double young_modulus() const { return elastic().young_modulus(); }
@@ -61,6 +105,7 @@ class Material {
 
  private:
   Model model_;
+  LinearElastic<Dim> elastic_;  ///< the model's elastic part, for the inline elastic path
 };
 
 }  // namespace tsph

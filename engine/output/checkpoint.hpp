@@ -5,7 +5,9 @@
 // the next in small-strain runs: its neighbour lists, normals and boundary slots are
 // rebuilt from the particles when it is constructed.
 //
-// Format 2 (issue 15, docs/reliability.md): the magic "TSPHCKP2", the byte count of the
+// Format 3 (issue 16: the plastic fields of ParticleSet, empty in elastic runs; format 2,
+// "TSPHCKP2", is refused naming its format) and, as format 2 (issue 15,
+// docs/reliability.md): the magic "TSPHCKP3", the byte count of the
 // body (uint64) and zlib's crc32 of the body (uint32), then the body: the record of the
 // case's resolved physics (engine/case/physics_record.hpp: one "key = value" line per
 // key, and its crc32) followed by the state. A damaged file (a flipped bit, overwritten
@@ -72,8 +74,9 @@ struct CheckpointHeader {
 
 namespace detail {
 
-constexpr char kCheckpointMagic[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '2'};
+constexpr char kCheckpointMagic[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '3'};
 constexpr char kCheckpointMagicFormat1[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '1'};
+constexpr char kCheckpointMagicFormat2[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '2'};
 /// Magic, body size, body checksum.
 constexpr std::size_t kCheckpointPrefixBytes = 8 + 8 + 4;
 
@@ -228,6 +231,9 @@ inline CheckpointHeader verify_checkpoint(Reader& r, std::size_t file_bytes, con
     throw CheckpointError(where + " is of format 1 (tsph before issue 15), which has no checksum and no record of "
                           "the case's physics, so it cannot be verified: start the run again (or continue it "
                           "with the tsph that wrote it)");
+  if (std::memcmp(magic, kCheckpointMagicFormat2, 8) == 0)
+    throw CheckpointError(where + " is of format 2 (tsph before issue 16), which holds no plastic state: start the "
+                          "run again (or continue it with the tsph that wrote it)");
   if (std::memcmp(magic, kCheckpointMagic, 8) != 0) throw CheckpointError("'" + path + "' is not a tsph checkpoint");
   if (file_bytes < kCheckpointPrefixBytes)
     throw CheckpointError(where + " is damaged: size check failed (truncated to " + std::to_string(file_bytes) +

@@ -36,6 +36,7 @@ struct FullStep {
     const PointsView<Dim> target_points = points_of<Dim>(state.real);
     const double h = state.settings.smoothing_length;
     const bool objective = state.objective_rates(), compressible = state.density_follows();
+    const bool plastic = state.material.plastic();  // the model's state: SolverState::update_real_stress
     NeighborLists<Dim>::prepare_full_step(state);  // without skin in updated Lagrangian: searched now
     const bool material_motion = state.moves_with_material_velocity();
     using Deficient = typename SolverSettings<Dim>::DeficientStencils;
@@ -113,7 +114,17 @@ struct FullStep {
           }
           StressVector<Dim> previous;  // sigma_r^n; the Jaumann terms rotate the interpolated s.stress
           for (int m = 0; m < stress_count; ++m) previous[m] = target.stress[m][r];
-          const StressVector<Dim> stress = model.update_stress({previous, s.stress, s.velocity_gradient, dt, objective});
+          // A plastic state is kept unless a boundary stage replaces the stress (it returns
+          // its own stress with the state at n: characteristics.hpp, wall_gradient.hpp).
+          const StressUpdate<Dim> update{previous, s.stress, s.velocity_gradient, dt, objective};
+          StressVector<Dim> stress;
+          if (!plastic) {
+            stress = model.update_stress(update);
+          } else {
+            const std::int32_t slot = state.boundary.slot[r];
+            const bool replaced = slot >= 0 && state.boundary.on_surface[static_cast<std::size_t>(slot)];
+            stress = state.update_real_stress(r, update, !replaced);
+          }
           for (int m = 0; m < stress_count; ++m) target.stress[m][r] = stress[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][r] +=

@@ -53,6 +53,7 @@ struct HalfStep {
     const double h = state.settings.smoothing_length;
     const double half_dt = 0.5 * dt;
     const bool objective = state.objective_rates(), compressible = state.density_follows();
+    const bool plastic = state.material.plastic();
     // The drift it removes is slow (the 2D cantilever: 1e-5 dx per step), so every
     // kMaterialPointInterval-th step is enough; each costs ~15 % of a 2D step (callgrind).
     const bool to_material_point =
@@ -72,7 +73,14 @@ struct HalfStep {
           counts += status;
           if (status.no_neighbors) return;  // isolated: keeps its values (counted)
           const LocalState s = Eval::evaluate(source, nb, w, scratch.gathered);
-          const StressVector<Dim> stress = model.update_stress({s.stress, s.stress, s.velocity_gradient, half_dt, objective});
+          const StressUpdate<Dim> update{s.stress, s.stress, s.velocity_gradient, half_dt, objective};
+          StressVector<Dim> stress;
+          if (plastic) {  // the state at the virtual particle: interpolated, used once
+            PlasticState at_n = state.interpolated_plastic_state(nb, w.value.data());
+            stress = model.update_stress(update, at_n);
+          } else {
+            stress = model.update_stress(update);
+          }
           for (int m = 0; m < stress_count; ++m) target.stress[m][q] = stress[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][q] =

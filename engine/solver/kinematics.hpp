@@ -17,6 +17,7 @@ namespace tsph {
 
 template <int Dim>
 struct Motion {
+  using Vec = Vector<Dim>;
   /// The first half of the step's motion, before the full step: in updated Lagrangian
   /// both sets to the midpoint (and the lists searched again there if the skin no
   /// longer covers the motion), in small strain the first half of the displacement.
@@ -95,15 +96,20 @@ struct Motion {
           double largest = 0.0;
           for (std::size_t i = begin; i < end; ++i) {
             bool trapezoid = !std::isfinite(state.next_position[0][i]);
-            if (const std::int32_t b = state.boundary.slot[i]; b >= 0 && !trapezoid)
+            bool on_plane = false;  // a symmetry plane: the move keeps to the plane
+            if (const std::int32_t b = state.boundary.slot[i]; b >= 0 && !trapezoid) {
               trapezoid = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::velocity;
-            double moved = 0.0;
-            for (int d = 0; d < Dim; ++d) {
-              const double next = trapezoid ? state.real.position[d][i] + 0.5 * dt * state.real.velocity[d][i]
-                                            : state.next_position[d][i];
-              moved += (next - state.real.position[d][i]) * (next - state.real.position[d][i]);
-              state.real.position[d][i] = next;
+              on_plane = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::symmetry;
             }
+            Vec step;
+            for (int d = 0; d < Dim; ++d)
+              step[d] = trapezoid ? 0.5 * dt * state.real.velocity[d][i] : state.next_position[d][i] - state.real.position[d][i];
+            if (on_plane) {
+              const Vec& n = state.boundary.normal[static_cast<std::size_t>(state.boundary.slot[i])];
+              step -= step.dot(n) * n;
+            }
+            const double moved = step.squaredNorm();
+            for (int d = 0; d < Dim; ++d) state.real.position[d][i] += step[d];
             largest = moved > largest ? moved : largest;
           }
           block_largest[block] = largest;

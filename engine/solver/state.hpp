@@ -11,9 +11,11 @@
 #include "engine/solver/stencil_evaluation.hpp"
 #include "neighbor/neighbor_list.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -161,6 +163,9 @@ struct SolverState {
           "positions for the hourglass stiffness or the updated-Lagrangian virtual motion, or every field with "
           "keep_virtual_fields)");
     if (!settings.keep_virtual_fields) virtual_.release_optional_fields(virtual_initial_positions);
+    virtual_.release_plastic_fields();  // a virtual particle's state is interpolated (half_step.hpp)
+    if (material.plastic()) real.carry_plastic_fields(material.initial_state().temperature);
+    else real.release_plastic_fields();
     boundary.slot.assign(real.size(), -1);
     for (std::size_t i = 0; i < real.size(); ++i) {
       const std::int32_t b = real.boundary[i];
@@ -223,6 +228,61 @@ struct SolverState {
     if (skin_distance() == 0.0) return true;
     const double radius = support_radius();
     return squared_distance<Dim>(a, i, b, j) <= radius * radius;
+  }
+
+  /// The plastic state of real particle i (a plastic material: the real set carries
+  /// the fields; ParticleSet::plastic_strain).
+  PlasticState plastic_state_of(std::size_t i) const {
+    PlasticState p;
+    p.equivalent_plastic_strain = real.plastic_strain[i];
+    p.plastic_work = real.plastic_work[i];
+    p.temperature = real.temperature[i];
+    StressVector<Dim> back;
+    for (int c = 0; c < stress_count; ++c) back[c] = real.back_stress[c][i];
+    p.back_stress = to_tensor<Dim>(back);
+    p.yielding = real.yielding[i] != 0;
+    return p;
+  }
+  void store_plastic_state(std::size_t i, const PlasticState& p) {
+    real.plastic_strain[i] = p.equivalent_plastic_strain;
+    real.plastic_work[i] = p.plastic_work;
+    real.temperature[i] = p.temperature;
+    const StressVector<Dim> back = from_tensor<Dim>(p.back_stress);
+    for (int c = 0; c < stress_count; ++c) real.back_stress[c][i] = back[c];
+    real.yielding[i] = p.yielding ? 1 : 0;
+  }
+  /// A virtual particle's plastic state at n: interpolated from its real row `nb` with
+  /// the half step's interpolation weights (the plastic strain kept >= 0).
+  PlasticState interpolated_plastic_state(std::span<const std::uint32_t> nb, const double* weight) const {
+    PlasticState p;
+    StressVector<Dim> back{};
+    for (std::size_t k = 0; k < nb.size(); ++k) {
+      const std::uint32_t j = nb[k];
+      p.equivalent_plastic_strain += weight[k] * real.plastic_strain[j];
+      p.temperature += weight[k] * real.temperature[j];
+      for (int c = 0; c < stress_count; ++c) back[c] += weight[k] * real.back_stress[c][j];
+    }
+    p.equivalent_plastic_strain = std::max(p.equivalent_plastic_strain, 0.0);
+    p.back_stress = to_tensor<Dim>(back);
+    return p;
+  }
+  /// The stress update of real particle i: elastic, or plastic with the particle's state,
+  /// stored back when `keep_state` (not where a boundary stage replaces the stress).
+  StressVector<Dim> update_real_stress(std::size_t i, const StressUpdate<Dim>& in, bool keep_state) {
+    if (!material.plastic()) return material.update_stress(in);
+    PlasticState p = plastic_state_of(i);
+    const StressVector<Dim> updated = material.update_stress(in, p);
+    if (keep_state) store_plastic_state(i, p);
+    return updated;
+  }
+  /// A boundary stage's stress of real particle i, reached elastically over dt, returned
+  /// to the yield surface (plastic materials) with the particle's state at n.
+  StressVector<Dim> return_real_stress(std::size_t i, const StressVector<Dim>& trial, double dt) {
+    if (!material.plastic()) return trial;
+    PlasticState p = plastic_state_of(i);
+    const StressVector<Dim> updated = material.return_map(trial, p, dt);
+    store_plastic_state(i, p);
+    return updated;
   }
 
   static StressVector<Dim> stress_of(const ParticleSet<Dim>& set, std::size_t i) {

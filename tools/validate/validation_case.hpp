@@ -60,5 +60,6 @@ std::vector<Case> rotation_cases();      // free rigid rotation, alpha 0.6 and 1
 std::vector<Case> cantilever_cases();    // large-deflection cantilever vs the elastica; 3D UL cantilever
 std::vector<Case> plate_cases();         // oscillating plate (Gray, Monaghan & Swift 2001)
 std::vector<Case> column_cases();        // twisting column (3D)
+std::vector<Case> plasticity_cases();    // homogeneous elastoplastic paths (issue 16)
 
 }  // namespace tsph::validate

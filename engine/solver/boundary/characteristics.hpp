@@ -160,10 +160,12 @@ struct CharacteristicBoundary {
       Mat stress1 = stress0;
       Vec velocity1;
       const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
+      // A symmetry plane: the normal velocity given (0), the tangential tractions (0).
+      const bool symmetry = condition.kind == BoundaryCondition<Dim>::Kind::symmetry;
       for (int k = 0; k < Dim; ++k) {
         const double invariant = k == 0 ? p_invariant : s_invariant[k];
         const double impedance = k == 0 ? z_p : z_s;
-        if (velocity_given) {
+        if (velocity_given || (symmetry && k == 0)) {
           velocity1[k] = prescribed[k];
           stress1(0, k) = invariant + impedance * prescribed[k];
         } else {
@@ -206,14 +208,18 @@ struct CharacteristicBoundary {
         FreeEdge<Dim>::make_uniaxial(state, b, i, n, frame, velocity_dt, dt, stress_global);
       const Vec velocity_global = frame * velocity1;
       for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = velocity_global[d];
+      StressVector<Dim> updated;
       for (int r = 0; r < Dim; ++r)
-        for (int c = r; c < Dim; ++c) state.real.stress[stress_index<Dim>(r, c)][i] = stress_global(r, c);
+        for (int c = r; c < Dim; ++c) updated[stress_index<Dim>(r, c)] = stress_global(r, c);
       if constexpr (Dim == 2) {  // sigma_zz: plane strain follows lambda tr d; plane stress 0
         const auto zz = 3;
-        state.real.stress[zz][i] = elastic.plane_mode() == PlaneMode::plane_stress
-                                  ? 0.0
-                                  : state.boundary.stress[b][zz] + dt * lame * volumetric;
+        updated[zz] = elastic.plane_mode() == PlaneMode::plane_stress
+                          ? 0.0
+                          : state.boundary.stress[b][zz] + dt * lame * volumetric;
       }
+      // A plastic material: the elastic boundary stress returned to the yield surface.
+      updated = state.return_real_stress(i, updated, dt);
+      for (int m = 0; m < stress_count; ++m) state.real.stress[m][i] = updated[m];
     }
   }
 };

@@ -88,12 +88,12 @@ struct BoundaryNormals {
         if (first_build) {
           state.boundary.on_surface[b] = on_surface;
           const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
-          if (!on_surface && condition.kind == BoundaryCondition<Dim>::Kind::traction)
+          if (!on_surface && condition.kind != BoundaryCondition<Dim>::Kind::velocity)
             throw std::invalid_argument(
                 "boundary condition '" + condition.name + "': real particle " +
-                std::to_string(state.real.id[i]) +
-                " is inside the body (no free surface there); a traction applies only to "
-                "surface particles: shrink the region to the surface");
+                std::to_string(state.real.id[i]) + " is inside the body (no free surface there); a " +
+                (condition.kind == BoundaryCondition<Dim>::Kind::traction ? "traction" : "symmetry plane") +
+                " applies only to surface particles: shrink the region to the surface");
         }
         state.boundary.normal[b] = face_normal(state, i, kernel_normal);
       }

@@ -29,7 +29,8 @@ struct WallGradient {
     const Mat gradient = state.boundary.half_velocity_gradient[b] +
                          (state.boundary.half_velocity[b] - wall_half) * state.boundary.gradient_sum[b].transpose();
     const StressVector<Dim>& previous = state.boundary.stress[b];
-    const StressVector<Dim> stress = model.update_stress({previous, previous, gradient, dt, state.objective_rates()});
+    (void)model;  // state.material
+    const StressVector<Dim> stress = state.update_real_stress(i, {previous, previous, gradient, dt, state.objective_rates()}, true);
     for (int m = 0; m < stress_count; ++m) state.real.stress[m][i] = stress[m];
     const Vec v = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
     for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = v[d];

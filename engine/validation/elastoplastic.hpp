@@ -1,0 +1,99 @@
+// Closed-form elastoplastic responses to homogeneous radial paths (issue 16;
+// ../shared/reference/large-deformation.md section 5): the references of the plastic
+// models' tests (tests/test_plasticity.cpp) and of the plastic cases of `tsph validate`
+// (tools/validate/plasticity.cpp). Small-strain formulas; along a path with no spin and
+// a fixed principal frame (uniaxial strain driven by v = G x, G diagonal) they hold
+// with the logarithmic strain, which the Jaumann rate integrates exactly there.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cmath>
+
+namespace tsph::elastoplastic {
+
+/// Linear isotropic + kinematic hardening along a fixed deviatoric direction N: e the
+/// deviatoric strain along N (tensor norm), s and a the deviatoric and back stresses
+/// along N; elastic ds = modulus de (2 mu; 1D: E), the yield surface
+/// |s - a| = radius_factor (Y0 + H_iso eps_p), and on it (plastic strain norm dg)
+///   ds = modulus (de - dg),  da = kin_factor H_kin dg,  deps_p = eps_factor dg.
+/// J2 in 2D/3D: radius and eps factors sqrt(2/3), kin factor 2/3; 1D: all 1.
+/// advance(de) follows one monotonic segment exactly (elastic to the surface, then the
+/// constant plastic tangent).
+struct LinearHardeningPath {
+  double modulus, radius_factor, kin_factor, eps_factor, yield, iso, kin;
+  double s = 0.0, a = 0.0, eps = 0.0;
+  void advance(double de) {
+    const double sign = de > 0.0 ? 1.0 : -1.0;
+    const double radius = radius_factor * (yield + iso * eps);
+    const double elastic_room = (sign * radius - (s - a)) / modulus;  // to the surface, de's sign
+    if (std::abs(elastic_room) >= std::abs(de)) {
+      s += modulus * de;
+      return;
+    }
+    s += modulus * elastic_room;
+    const double rest = std::abs(de - elastic_room);
+    // Consistency: modulus (rest - dg) - kin_factor H_kin dg = radius_factor H_iso eps_factor dg.
+    const double dg = modulus * rest / (modulus + kin_factor * kin + radius_factor * iso * eps_factor);
+    s += sign * (modulus * rest - modulus * dg);
+    a += sign * kin_factor * kin * dg;
+    eps += eps_factor * dg;
+  }
+};
+
+/// J2 with linear hardening in uniaxial strain eps_xx = strain (2D plane strain, 3D),
+/// loaded monotonically from rest: the stress tensor; `plastic_strain` gets eps_p.
+inline Eigen::Matrix3d j2_uniaxial_strain(double young, double nu, double yield, double iso, double kin, double strain,
+                                          double* plastic_strain = nullptr) {
+  const double mu = young / (2.0 * (1.0 + nu)), bulk = young / (3.0 * (1.0 - 2.0 * nu));
+  LinearHardeningPath path{2.0 * mu, std::sqrt(2.0 / 3.0), 2.0 / 3.0, std::sqrt(2.0 / 3.0), yield, iso, kin};
+  path.advance(std::sqrt(2.0 / 3.0) * strain);  // |dev eps| along N = (2, -1, -1) / sqrt(6)
+  if (plastic_strain) *plastic_strain = path.eps;
+  const double deviator_xx = std::sqrt(2.0 / 3.0) * path.s;
+  return Eigen::Vector3d(bulk * strain + deviator_xx, bulk * strain - 0.5 * deviator_xx,
+                         bulk * strain - 0.5 * deviator_xx)
+      .asDiagonal();
+}
+
+/// Johnson-Cook strength without rate and temperature terms, Y = A + B eps_p^n, in
+/// uniaxial strain loaded monotonically: q = 3 mu (2/3 strain - eps_p) = Y(eps_p)
+/// (radial: the return of any step size lands on it), solved by bisection.
+inline Eigen::Matrix3d johnson_cook_uniaxial_strain(double young, double nu, double a, double b, double n,
+                                                    double strain, double* plastic_strain = nullptr) {
+  const double mu = young / (2.0 * (1.0 + nu)), bulk = young / (3.0 * (1.0 - 2.0 * nu));
+  const double sign = strain >= 0.0 ? 1.0 : -1.0, equivalent = 2.0 / 3.0 * std::abs(strain);
+  double eps = 0.0;
+  if (3.0 * mu * equivalent > a) {
+    double low = 0.0, high = equivalent;
+    for (int k = 0; k < 200; ++k) {
+      eps = 0.5 * (low + high);
+      (3.0 * mu * (equivalent - eps) > a + b * std::pow(eps, n) ? low : high) = eps;
+    }
+  }
+  if (plastic_strain) *plastic_strain = eps;
+  const double q = 3.0 * mu * (equivalent - eps);  // sigma_xx - sigma_yy
+  const double mean = bulk * strain;
+  return Eigen::Vector3d(mean + sign * 2.0 / 3.0 * q, mean - sign * q / 3.0, mean - sign * q / 3.0).asDiagonal();
+}
+
+/// Perfectly plastic Drucker-Prager (constants eta, xi, eta_bar of the model) in uniaxial
+/// strain compression (strain < 0), loaded monotonically: elastic until
+/// sqrt(J2) + eta p = xi c, then along the cone with
+///   d lambda = (-(2G / sqrt 3) + eta K) d strain / (G + K eta eta_bar)
+/// (needs 2G / sqrt 3 > eta K, or the path never yields).
+inline Eigen::Matrix3d drucker_prager_uniaxial_compression(double young, double nu, double cohesion, double eta,
+                                                           double xi, double eta_bar, double strain,
+                                                           double* plastic_strain = nullptr) {
+  const double g = young / (2.0 * (1.0 + nu)), k = young / (3.0 * (1.0 - 2.0 * nu));
+  const double rise = 2.0 * g / std::sqrt(3.0) - eta * k;
+  const double first_yield = -xi * cohesion / rise;
+  const double lambda = strain < first_yield ? -rise * (strain - first_yield) / (g + k * eta * eta_bar) : 0.0;
+  if (plastic_strain) *plastic_strain = xi * lambda;
+  const double root_j2 = -(2.0 * g / std::sqrt(3.0)) * strain - g * lambda;
+  const double mean = k * strain - k * eta_bar * lambda;
+  return Eigen::Vector3d(mean - 2.0 / std::sqrt(3.0) * root_j2, mean + root_j2 / std::sqrt(3.0),
+                         mean + root_j2 / std::sqrt(3.0))
+      .asDiagonal();
+}
+
+}  // namespace tsph::elastoplastic

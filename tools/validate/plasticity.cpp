@@ -1,0 +1,159 @@
+// Homogeneous elastoplastic deformation (issue 16, item 3): the block of
+// tools/cases/homogeneous_{2,3}d.toml with a plastic material.model, every particle
+// driven by v = G x (uniaxial strain, G = diag(rate, 0, 0)), updated Lagrangian, past
+// first yield; the stress and the equivalent plastic strain of every particle against
+// the closed-form responses of engine/validation/elastoplastic.hpp (J2 with linear
+// isotropic and kinematic hardening, Johnson-Cook, perfectly plastic Drucker-Prager in
+// compression). With no spin and a fixed principal frame the Jaumann rate integrates
+// the logarithmic strain exactly, so the closed forms hold at eps = rate t.
+#include "engine/material/drucker_prager.hpp"
+#include "engine/validation/elastoplastic.hpp"
+#include "tools/validate/support.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace tsph::validate {
+namespace {
+
+enum class Model { j2, johnson_cook, drucker_prager };
+
+struct PlasticSpec {
+  std::string name, description;
+  int dimension = 2;
+  Model model = Model::j2;
+  double log_strain = 0.15;  ///< ln(stretch) at the end (negative: compression)
+};
+
+constexpr double kRate = 0.05;  ///< true strain rate (1/s), as the elastic homogeneous cases
+constexpr int kFrames = 30;
+
+// The parameters (the case files' E = 1e6 Pa, nu = 0.3): first yield at a strain of
+// 0.026 (J2, JC) and -0.056 (Drucker-Prager), the end 3 to 6 times beyond.
+constexpr double kYield = 2e4, kIsotropic = 1e5, kKinematic = 5e4;       // j2
+constexpr double kA = 2e4, kB = 8e4, kN = 0.4;                           // johnson_cook
+constexpr double kCohesion = 1e4, kFriction = 20.0, kDilation = 5.0;     // drucker_prager
+
+std::vector<std::string> material_overrides(Model m) {
+  switch (m) {
+    case Model::j2:
+      return {"material.model=\"j2\"", fmt::format("material.yield_stress={}", kYield),
+              fmt::format("material.isotropic_hardening={}", kIsotropic),
+              fmt::format("material.kinematic_hardening={}", kKinematic)};
+    case Model::johnson_cook:
+      return {"material.model=\"johnson_cook\"", fmt::format("material.A={}", kA), fmt::format("material.B={}", kB),
+              fmt::format("material.n={}", kN)};
+    case Model::drucker_prager:
+      return {"material.model=\"drucker_prager\"", fmt::format("material.cohesion={}", kCohesion),
+              fmt::format("material.friction_angle={}", kFriction),
+              fmt::format("material.dilation_angle={}", kDilation)};
+  }
+  return {};
+}
+
+/// The closed-form stress at the log strain e, and its equivalent plastic strain.
+Eigen::Matrix3d reference(const PlasticSpec& s, const CaseFile& c, double e, double& plastic) {
+  const double young = c.young_modulus, nu = c.poisson_ratio;
+  switch (s.model) {
+    case Model::j2: return elastoplastic::j2_uniaxial_strain(young, nu, kYield, kIsotropic, kKinematic, e, &plastic);
+    case Model::johnson_cook: return elastoplastic::johnson_cook_uniaxial_strain(young, nu, kA, kB, kN, e, &plastic);
+    case Model::drucker_prager: {
+      typename DruckerPrager<3>::Parameters p;
+      p.cohesion = kCohesion, p.friction_angle = kFriction, p.dilation_angle = kDilation;
+      const DruckerPrager<3> model(LinearElastic<3>(young, nu, c.density), p);  // its cone constants
+      return elastoplastic::drucker_prager_uniaxial_compression(young, nu, kCohesion, model.eta(), model.xi(),
+                                                                model.eta_bar(), e, &plastic);
+    }
+  }
+  return Eigen::Matrix3d::Zero();
+}
+
+Result run_plastic(const PlasticSpec& s, const Options& o) {
+  const double rate = std::copysign(kRate, s.log_strain);
+  const double end = s.log_strain / rate;
+  std::vector<double> g(static_cast<std::size_t>(s.dimension * s.dimension), 0.0);
+  g[0] = rate;
+  std::vector<std::string> overrides = {"boundary.0.velocity_gradient=" + toml_array(g),
+                                        "initial.velocity_gradient=" + toml_array(g),
+                                        fmt::format("time.end={:.17g}", end), output_times(end, kFrames),
+                                        "output.fields=[\"stress\",\"displacement\",\"id\",\"plastic\"]"};
+  for (auto& m : material_overrides(s.model)) overrides.push_back(m);
+  if (s.dimension == 2) overrides.push_back("material.plane=\"strain\"");
+  if (o.quick) overrides.push_back(s.dimension == 2 ? "geometry.spacing=0.2" : "geometry.spacing=0.25");
+  const std::string file = s.dimension == 2 ? "homogeneous_2d.toml" : "homogeneous_3d.toml";
+  CaseRun run = run_case_file(o, file, overrides, "run");
+  Result result;
+
+  Series series;
+  series.name = "stress";
+  series.title = s.description;
+  series.x_label = "ln(stretch)";
+  series.y_label = "mean stress (Pa), plastic strain x 1e6";
+  series.columns = {"ln(stretch)", "sigma_xx", "sigma_yy", "plastic strain x 1e6", "ref sigma_xx", "ref sigma_yy",
+                    "ref plastic strain x 1e6"};
+  double final_plastic = 0.0;
+  const Eigen::Matrix3d final_reference = reference(s, run.file, s.log_strain, final_plastic);
+  const double scale = final_reference.cwiseAbs().maxCoeff();
+  double worst = 0.0, worst_plastic = 0.0, mean_xx = 0.0, mean_yy = 0.0, mean_plastic = 0.0;
+  for (std::size_t f = 0; f < run.frames.size(); ++f) {
+    const double e = rate * run.frame_times[f];
+    double plastic_ref = 0.0;
+    const Eigen::Matrix3d ref = reference(s, run.file, e, plastic_ref);
+    const auto& stress = array_of(run.frames[f], "stress");  // VTK order xx yy zz xy yz xz
+    const auto& plastic = array_of(run.frames[f], "plastic_strain");
+    const std::size_t n = run.frames[f].point_count;
+    double sxx = 0.0, syy = 0.0, ep = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double* p = stress.data() + 6 * i;
+      const double error = std::max({std::abs(p[0] - ref(0, 0)), std::abs(p[1] - ref(1, 1)), std::abs(p[2] - ref(2, 2)),
+                                     std::abs(p[3]), std::abs(p[4]), std::abs(p[5])}) / scale;
+      worst = std::max(worst, error);
+      worst_plastic = std::max(worst_plastic, std::abs(plastic[i] - plastic_ref) / final_plastic);
+      sxx += p[0] / static_cast<double>(n);
+      syy += p[1] / static_cast<double>(n);
+      ep += plastic[i] / static_cast<double>(n);
+    }
+    series.rows.push_back({e, sxx, syy, 1e6 * ep, ref(0, 0), ref(1, 1), 1e6 * plastic_ref});
+    if (f + 1 == run.frames.size()) mean_xx = sxx, mean_yy = syy, mean_plastic = ep;
+  }
+  result.checks.push_back(no_divergence_check(run, result));
+  if (run.diverged || run.frames.empty()) {
+    result.series.push_back(std::move(series));
+    return result;
+  }
+  const std::string when = fmt::format("ln(stretch) = {:.3g}", s.log_strain);
+  result.checks.push_back(relative_check("mean sigma_xx at " + when, mean_xx, final_reference(0, 0), 1e-4));
+  result.checks.push_back(relative_check("mean sigma_yy at " + when, mean_yy, final_reference(1, 1), 1e-4));
+  result.checks.push_back(relative_check("mean plastic strain at " + when, mean_plastic, final_plastic, 1e-4));
+  result.checks.push_back(
+      bound_check(fmt::format("worst particle and frame, max |sigma - ref| / {:.4g} Pa", scale), worst, 1e-4));
+  result.checks.push_back(bound_check("worst particle and frame, |eps_p - ref| / final eps_p", worst_plastic, 1e-4));
+  result.notes.push_back(fmt::format("{} steps, dt = {:.4g} s, {} particles, {:.2f} s wall", run.report.steps,
+                                     run.report.dt, run.report.real_particles, run.wall_seconds));
+  result.series.push_back(std::move(series));
+  return result;
+}
+
+}  // namespace
+
+std::vector<Case> plasticity_cases() {
+  const std::vector<PlasticSpec> specs = {
+      {"plastic_j2_2d", "J2, isotropic + kinematic hardening, uniaxial strain to ln 1.16, plane strain", 2, Model::j2, 0.15},
+      {"plastic_j2_3d", "J2, isotropic + kinematic hardening, uniaxial strain to ln 1.16, 3D", 3, Model::j2, 0.15},
+      {"plastic_johnson_cook_3d", "Johnson-Cook (A, B, n), uniaxial strain to ln 1.16, 3D", 3, Model::johnson_cook, 0.15},
+      {"plastic_drucker_prager_2d", "Drucker-Prager (phi 20, psi 5), uniaxial strain compression to ln 0.86, plane strain",
+       2, Model::drucker_prager, -0.15},
+      {"plastic_drucker_prager_3d", "Drucker-Prager (phi 20, psi 5), uniaxial strain compression to ln 0.86, 3D", 3,
+       Model::drucker_prager, -0.15},
+  };
+  std::vector<Case> cases;
+  for (const auto& s : specs)
+    cases.push_back({s.name, s.description, false, [s](const Options& o) { return run_plastic(s, o); }});
+  return cases;
+}
+
+}  // namespace tsph::validate
