@@ -90,31 +90,31 @@ std::string physics_record(const CaseFile& c) {
   r.add("material.nu", c.poisson_ratio);
   r.add("material.rho", c.density);
   r.add_text("material.plane", c.plane_mode == PlaneMode::plane_strain ? "strain" : "stress");
-  const CaseFile::Plasticity& p = c.plasticity;
-  if (p.model != "elastic") {  // issue 16: the model and its keys (elastic records stay as they were)
-    r.add_text("material.model", p.model);
-    if (p.model == "j2") {
-      r.add("material.yield_stress", p.yield_stress);
-      r.add("material.isotropic_hardening", p.isotropic_hardening);
-      r.add("material.kinematic_hardening", p.kinematic_hardening);
-    } else if (p.model == "johnson_cook") {
-      for (const auto& [key, value] : {std::pair{"A", p.a}, {"B", p.b}, {"n", p.n}, {"C", p.c}, {"reference_rate", p.reference_rate}})
+  const CaseFile::Plasticity& material = c.plasticity;
+  if (material.model != "elastic") {  // issue 16: the model and its keys (elastic records stay as they were)
+    r.add_text("material.model", material.model);
+    if (material.model == "j2") {
+      r.add("material.yield_stress", material.yield_stress);
+      r.add("material.isotropic_hardening", material.isotropic_hardening);
+      r.add("material.kinematic_hardening", material.kinematic_hardening);
+    } else if (material.model == "johnson_cook") {
+      for (const auto& [key, value] : {std::pair{"A", material.a}, {"B", material.b}, {"n", material.n}, {"C", material.c}, {"reference_rate", material.reference_rate}})
         r.add(std::string("material.") + key, value);
-      r.add("material.thermal", p.thermal);
-      if (p.thermal)
-        for (const auto& [key, value] : {std::pair{"room_temperature", p.room_temperature}, {"melt_temperature", p.melt_temperature},
-                                         {"m", p.m}, {"specific_heat", p.specific_heat}, {"taylor_quinney", p.taylor_quinney}})
+      r.add("material.thermal", material.thermal);
+      if (material.thermal)
+        for (const auto& [key, value] : {std::pair{"room_temperature", material.room_temperature}, {"melt_temperature", material.melt_temperature},
+                                         {"m", material.m}, {"specific_heat", material.specific_heat}, {"taylor_quinney", material.taylor_quinney}})
           r.add(std::string("material.") + key, value);
     } else {
-      for (const auto& [key, value] : {std::pair{"cohesion", p.cohesion}, {"friction_angle", p.friction_angle},
-                                       {"dilation_angle", p.dilation_angle}, {"hardening", p.hardening},
-                                       {"tension_cutoff", p.tension_cutoff}})
+      for (const auto& [key, value] : {std::pair{"cohesion", material.cohesion}, {"friction_angle", material.friction_angle},
+                                       {"dilation_angle", material.dilation_angle}, {"hardening", material.hardening},
+                                       {"tension_cutoff", material.tension_cutoff}})
         r.add(std::string("material.") + key, value);
-      r.add_text("material.cone", p.cone);
+      r.add_text("material.cone", material.cone);
     }
-    if (p.fluidity > 0.0) {
-      r.add("material.fluidity", p.fluidity);
-      r.add("material.exponent", p.exponent);
+    if (material.fluidity > 0.0) {
+      r.add("material.fluidity", material.fluidity);
+      r.add("material.exponent", material.exponent);
     }
   }
   r.add_text("method.kernel", std::string(to_string(c.kernel)));

@@ -65,8 +65,10 @@ class LinearElastic {
   /// tensor form with Eigen cost 160 instructions per call in 2D): with symmetric sigma,
   /// omega sigma - sigma omega = P + P^T, P = omega sigma, and omega has no out-of-plane
   /// part in 2D (sigma_zz only takes lambda tr d, or 0 in plane stress).
-  StressVector<Dim> stress_rate(const Matrix<Dim>& grad_v, const StressVector<Dim>& stress,
-                                bool objective = true) const {
+  /// Always inlined: the plastic models call it too, and a call costs the elastic loops
+  /// 2 % of the 2D step's instructions (callgrind, 2026-11-26).
+  [[gnu::always_inline]] StressVector<Dim> stress_rate(const Matrix<Dim>& grad_v, const StressVector<Dim>& stress,
+                                                       bool objective = true) const {
     if constexpr (Dim == 1) {
       return {young_ * grad_v(0, 0)};
     } else {
@@ -105,7 +107,7 @@ class LinearElastic {
 
   /// The material interface (material/material.hpp): sigma^{n+1} = sigma^n + dt
   /// stress_rate(L, sigma_rate, objective), per component. No internal variables.
-  StressVector<Dim> update_stress(const StressUpdate<Dim>& in) const {
+  [[gnu::always_inline]] StressVector<Dim> update_stress(const StressUpdate<Dim>& in) const {
     const StressVector<Dim> rate = stress_rate(in.velocity_gradient, in.rate_stress, in.objective);
     StressVector<Dim> updated;
     for (int m = 0; m < stress_component_count<Dim>; ++m) updated[m] = in.stress[m] + in.dt * rate[m];

@@ -71,7 +71,9 @@ class Material {
   }
 
   /// The elastic stress update (material/stress_update.hpp); elastic models only.
-  StressVector<Dim> update_stress(const StressUpdate<Dim>& in) const { return elastic_.update_stress(in); }
+  [[gnu::always_inline]] StressVector<Dim> update_stress(const StressUpdate<Dim>& in) const {
+    return elastic_.update_stress(in);
+  }
   /// The stress update of a plastic model with the particle's state, updated in place.
   [[gnu::noinline]] StressVector<Dim> update_stress(const StressUpdate<Dim>& in, PlasticState& state) const {
     return visit([&](const auto& m) -> StressVector<Dim> {

@@ -117,14 +117,7 @@ struct FullStep {
           // A plastic state is kept unless a boundary stage replaces the stress (it returns
           // its own stress with the state at n: characteristics.hpp, wall_gradient.hpp).
           const StressUpdate<Dim> update{previous, s.stress, s.velocity_gradient, dt, objective};
-          StressVector<Dim> stress;
-          if (!plastic) {
-            stress = model.update_stress(update);
-          } else {
-            const std::int32_t slot = state.boundary.slot[r];
-            const bool replaced = slot >= 0 && state.boundary.on_surface[static_cast<std::size_t>(slot)];
-            stress = state.update_real_stress(r, update, !replaced);
-          }
+          const StressVector<Dim> stress = plastic ? plastic_stress(state, r, update) : model.update_stress(update);
           for (int m = 0; m < stress_count; ++m) target.stress[m][r] = stress[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][r] +=
@@ -135,6 +128,15 @@ struct FullStep {
             target.volume[r] = target.mass[r] / target.density[r];
           }
         }));
+  }
+
+  /// A plastic material's stress at n+1 of real particle r with its own state, kept
+  /// unless a boundary stage replaces the stress (out of line: the elastic loop stays lean).
+  [[gnu::noinline]] static StressVector<Dim> plastic_stress(SolverState<Dim>& state, std::size_t r,
+                                                            const StressUpdate<Dim>& update) {
+    const std::int32_t slot = state.boundary.slot[r];
+    const bool replaced = slot >= 0 && state.boundary.on_surface[static_cast<std::size_t>(slot)];
+    return state.update_real_stress(r, update, !replaced);
   }
 
   /// SolverSettings::deficient_stencils: a real particle whose virtual stencil

@@ -74,13 +74,8 @@ struct HalfStep {
           if (status.no_neighbors) return;  // isolated: keeps its values (counted)
           const LocalState s = Eval::evaluate(source, nb, w, scratch.gathered);
           const StressUpdate<Dim> update{s.stress, s.stress, s.velocity_gradient, half_dt, objective};
-          StressVector<Dim> stress;
-          if (plastic) {  // the state at the virtual particle: interpolated, used once
-            PlasticState at_n = state.interpolated_plastic_state(nb, w.value.data());
-            stress = model.update_stress(update, at_n);
-          } else {
-            stress = model.update_stress(update);
-          }
+          const StressVector<Dim> stress =
+              plastic ? plastic_stress(state, update, nb, w) : model.update_stress(update);
           for (int m = 0; m < stress_count; ++m) target.stress[m][q] = stress[m];
           for (int d = 0; d < Dim; ++d)
             target.velocity[d][q] =
@@ -96,6 +91,14 @@ struct HalfStep {
         });
     state.add(shifts);
     state.lists.virtual_path_bound += shifts.largest_shift;  // the lists' skin check (NeighborLists::outdated)
+  }
+
+  /// A plastic material's stress at n+1/2 of a virtual particle, with its state at n
+  /// interpolated from its real row (used once; out of line: the elastic loop stays lean).
+  [[gnu::noinline]] static StressVector<Dim> plastic_stress(const SolverState<Dim>& state, const StressUpdate<Dim>& update,
+                                                            std::span<const std::uint32_t> nb, const StencilWeights<Dim>& w) {
+    PlasticState at_n = state.interpolated_plastic_state(nb, w.value.data());
+    return state.material.update_stress(update, at_n);
   }
 
   /// Puts virtual particle q back at the material point X_q it stands for, read from its

@@ -101,15 +101,20 @@ struct Motion {
               trapezoid = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::velocity;
               on_plane = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::symmetry;
             }
-            Vec step;
-            for (int d = 0; d < Dim; ++d)
-              step[d] = trapezoid ? 0.5 * dt * state.real.velocity[d][i] : state.next_position[d][i] - state.real.position[d][i];
+            double moved = 0.0;
             if (on_plane) {
               const Vec& n = state.boundary.normal[static_cast<std::size_t>(state.boundary.slot[i])];
+              Vec step;
+              for (int d = 0; d < Dim; ++d) step[d] = state.next_position[d][i] - state.real.position[d][i];
               step -= step.dot(n) * n;
+              for (int d = 0; d < Dim; ++d) state.next_position[d][i] = state.real.position[d][i] + step[d];
             }
-            const double moved = step.squaredNorm();
-            for (int d = 0; d < Dim; ++d) state.real.position[d][i] += step[d];
+            for (int d = 0; d < Dim; ++d) {
+              const double next = trapezoid ? state.real.position[d][i] + 0.5 * dt * state.real.velocity[d][i]
+                                            : state.next_position[d][i];
+              moved += (next - state.real.position[d][i]) * (next - state.real.position[d][i]);
+              state.real.position[d][i] = next;
+            }
             largest = moved > largest ? moved : largest;
           }
           block_largest[block] = largest;
