@@ -39,7 +39,9 @@ LatticeBox<Dim> block_box(std::int64_t particles) {
 /// sine waves, sin(a + d) cos(b) = (sin(a + b + d) + sin(a - b + d)) / 2 and
 /// sin(t + d) = cos(d) sin(t) + sin(d) sin(t + pi/2).
 template <int Dim>
-CaseFile block_case(std::int64_t particles, double alpha, Kinematics kinematics = Kinematics::updated_lagrangian) {
+/// `material_keys`: more [material] lines (a plastic material.model and its keys).
+CaseFile block_case(std::int64_t particles, double alpha, Kinematics kinematics = Kinematics::updated_lagrangian,
+                    const std::string& material_keys = "") {
   static_assert(Dim == 2 || Dim == 3, "the benchmark block is 2D or 3D");
   const LatticeBox<Dim> box = block_box<Dim>(particles);
   auto vector = [](auto component) {
@@ -59,7 +61,7 @@ CaseFile block_case(std::int64_t particles, double alpha, Kinematics kinematics 
   const std::string text = fmt::format(
       "title = \"benchmark block\"\ndimension = {dim}\n"
       "[geometry]\nspacing = {dx:.17g}\nbox = {{ lower = {zero}, upper = {one} }}\n"
-      "[material]\nE = {young:.17g}\nnu = 0.3\nrho = {rho:.17g}\n{plane}"
+      "[material]\nE = {young:.17g}\nnu = 0.3\nrho = {rho:.17g}\n{plane}{material}"
       "[method]\nalpha = {alpha:.17g}\nkinematics = \"{kinematics}\"\n"
       "[time]\nend = 1.0\ncfl = 0.3\n"
       "[[boundary]]\nname = \"clamp\"\ntype = \"fixed\"\n"
@@ -69,7 +71,8 @@ CaseFile block_case(std::int64_t particles, double alpha, Kinematics kinematics 
       "{waves}",
       fmt::arg("dim", Dim), fmt::arg("dx", box.spacing), fmt::arg("zero", vector([](int) { return 0.0; })),
       fmt::arg("one", vector([](int) { return 1.0; })), fmt::arg("young", kBlockYoung), fmt::arg("rho", kBlockDensity),
-      fmt::arg("plane", Dim == 2 ? "plane = \"strain\"\n" : ""), fmt::arg("alpha", alpha),
+      fmt::arg("plane", Dim == 2 ? "plane = \"strain\"\n" : ""), fmt::arg("material", material_keys),
+      fmt::arg("alpha", alpha),
       fmt::arg("kinematics", to_string(kinematics)),
       fmt::arg("minus_x", vector([](int d) { return d == 0 ? -1.0 : 0.0; })),
       fmt::arg("plus_x", vector([](int d) { return d == 0 ? 1.0 : 0.0; })), fmt::arg("waves", waves));
@@ -83,8 +86,8 @@ template <int Dim, class Reorder = void (*)(ParticleSet<Dim>&, double),
 TaylorSph<Dim> make_block(std::int64_t particles, double alpha,
                           Kinematics kinematics = Kinematics::updated_lagrangian,
                           Reorder reorder = [](ParticleSet<Dim>&, double) {},
-                          Configure configure = [](SolverSettings<Dim>&) {}) {
-  const CaseFile c = block_case<Dim>(particles, alpha, kinematics);
+                          Configure configure = [](SolverSettings<Dim>&) {}, const std::string& material_keys = "") {
+  const CaseFile c = block_case<Dim>(particles, alpha, kinematics, material_keys);
   BuiltCase<Dim> b = build_case<Dim>(c);
   reorder(b.real, kSupportFactor * b.settings.smoothing_length);
   reorder(b.virtual_particles, kSupportFactor * b.settings.smoothing_length);

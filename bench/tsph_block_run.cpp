@@ -11,6 +11,8 @@
 #include "engine/parallel.hpp"
 #include "neighbor/spatial_order.hpp"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <random>
 
@@ -42,6 +44,11 @@ struct Options {
   /// SolverSettings::spatial_order: the solver sorts the sets when their order decays.
   SpatialOrder solver_order = SpatialOrder::none;
   double skin = 0.05;  ///< SolverSettings::neighbor_skin (fraction of 2h; its default; 0: none)
+  /// material.model (issue 16): elastic, j2 (yield stress `yield`) or drucker_prager
+  /// (cohesion `yield`, phi 20, psi 10); the default yield of 1 Pa makes every particle
+  /// yield at every step (the plastic step's full cost), 1e30 none.
+  std::string model = "elastic";
+  double yield = 1.0;
 };
 
 [[noreturn]] void usage_error(const std::string& message) {
@@ -50,7 +57,7 @@ struct Options {
                "usage: tsph-block-run [--dim 2|3] [--particles N] [--steps K] [--threads T] "
                "[--alpha A] [--small-strain] [--order none|shuffled|cells|morton] "
                "[--search auto|cell_list|kd_tree] [--transpose] [--solver-order none|cells|morton] "
-               "[--skin S]\n");
+               "[--skin S] [--model elastic|j2|drucker_prager] [--yield Y]\n");
   std::exit(2);
 }
 
@@ -98,13 +105,19 @@ int run(const Options& o) {
     settings.spatial_order = o.solver_order;
     settings.neighbor_skin = o.skin;
   };
-  auto solver = bench::make_block<Dim>(o.particles, o.alpha, o.kinematics, reorder, configure);
+  const std::string material_keys =
+      o.model == "j2" ? fmt::format("model = \"j2\"\nyield_stress = {:.17g}\n", o.yield)
+      : o.model == "drucker_prager"
+          ? fmt::format("model = \"drucker_prager\"\ncohesion = {:.17g}\nfriction_angle = 20\ndilation_angle = 10\n", o.yield)
+          : std::string();
+  auto solver = bench::make_block<Dim>(o.particles, o.alpha, o.kinematics, reorder, configure, material_keys);
   const auto built = std::chrono::steady_clock::now();
   const double dt = bench::block_time_step(solver, o.alpha);
   run_steps(solver, dt, o.steps);
   const auto end = std::chrono::steady_clock::now();
   const double setup_s = std::chrono::duration<double>(built - start).count();
   const double steps_s = std::chrono::duration<double>(end - built).count();
+  std::printf("material %s\n", solver.material().name());
   std::printf("dim %d, real %zu, virtual %zu, pairs virtual<-real %zu, "
               "threads %d, search %s, reorders %lld, skin %g, list builds %lld in %d steps\n",
               Dim, solver.real().size(), solver.virtual_particles().size(),
@@ -151,6 +164,13 @@ int main(int argc, char** argv) {
       }
       continue;
     }
+    if (key == "--model") {
+      if (a + 1 >= argc) usage_error("option --model needs a value");
+      o.model = argv[++a];
+      if (o.model != "elastic" && o.model != "j2" && o.model != "drucker_prager")
+        usage_error("model = '" + o.model + "' is invalid: must be one of: elastic, j2, drucker_prager");
+      continue;
+    }
     if (key == "--transpose") {
       o.transpose_lists = true;
       continue;
@@ -180,6 +200,9 @@ int main(int argc, char** argv) {
     } else if (key == "--threads") {
       if (!(number >= 1.0 && number <= 1024.0)) usage_error("threads = " + value + " is invalid: must lie in [1, 1024]");
       o.threads = static_cast<int>(number);
+    } else if (key == "--yield") {
+      if (!(number > 0.0)) usage_error("yield = " + value + " is invalid: must be positive (Pa)");
+      o.yield = number;
     } else if (key == "--alpha") {
       o.alpha = number;  // its range is the case file's method.alpha (checked where the block is built)
     } else {
