@@ -21,7 +21,8 @@ namespace tsph {
 template <int Dim>
 struct BoundaryCondition {
   /// symmetry: zero normal velocity and zero tangential traction on a plane (a roller,
-  /// a frictionless rigid wall; issue 16), the plane's normal the particles' face normal.
+  /// a frictionless rigid wall; issue 16), the plane's normal the particles' face normal;
+  /// with a velocity, a smooth wall moving with it (its normal part imposed: a footing).
   enum class Kind { velocity, traction, symmetry };
   using Profile = std::function<Vector<Dim>(const Vector<Dim>&)>;
 
@@ -61,9 +62,11 @@ struct BoundaryCondition {
                                     Profile profile = uniform()) {
     return {Kind::traction, std::move(components), std::move(profile), std::move(name), {}};
   }
-  /// A symmetry plane (see Kind::symmetry).
-  static BoundaryCondition symmetry(std::string name) {
-    return {Kind::symmetry, filled(TimeFunction::constant(0.0)), uniform(), std::move(name), {}};
+  /// A symmetry plane (see Kind::symmetry), or a smooth rigid wall moving with the
+  /// velocity `components` (only its normal part is imposed).
+  static BoundaryCondition symmetry(std::string name, std::array<TimeFunction, Dim> components =
+                                                          filled(TimeFunction::constant(0.0))) {
+    return {Kind::symmetry, std::move(components), uniform(), std::move(name), {}};
   }
   /// Zero traction.
   static BoundaryCondition free(std::string name) {

@@ -251,7 +251,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
     }
     if (s.type == "fixed") b.conditions.push_back(BoundaryCondition<Dim>::fixed(s.name));
     else if (s.type == "free") b.conditions.push_back(BoundaryCondition<Dim>::free(s.name));
-    else if (s.type == "symmetry") b.conditions.push_back(BoundaryCondition<Dim>::symmetry(s.name));
+    else if (s.type == "symmetry") b.conditions.push_back(BoundaryCondition<Dim>::symmetry(s.name, components));
     else if (s.type == "velocity" && !s.velocity_gradient.empty()) {
       // v = value + G x along the exact affine motion (engine/affine_motion.hpp).
       Matrix<Dim> g;

@@ -358,8 +358,9 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     } else {
       s.regions.push_back(read_region(b.table("region", true), dim));
     }
-    if (s.type == "velocity" || s.type == "traction") {
-      s.value = b.numbers("value", true, dim, s.type == "velocity" ? "m/s" : "Pa, sigma . n")
+    if (s.type == "velocity" || s.type == "traction" || (s.type == "symmetry" && b.has("value"))) {
+      // A symmetry plane may move (a smooth rigid wall, a footing): value is its velocity.
+      s.value = b.numbers("value", true, dim, s.type == "traction" ? "Pa, sigma . n" : "m/s")
                     .value_or(std::vector<double>(dim, 0.0));
       s.time = read_time_function(b.table("time", false));
       s.profile = b.text("profile", false, {"uniform", "cantilever_shear"}).value_or("uniform");

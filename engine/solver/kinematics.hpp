@@ -102,11 +102,11 @@ struct Motion {
               on_plane = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::symmetry;
             }
             double moved = 0.0;
-            if (on_plane) {
+            if (on_plane) {  // along the plane as the material, across it as the (moving) wall
               const Vec& n = state.boundary.normal[static_cast<std::size_t>(state.boundary.slot[i])];
               Vec step;
               for (int d = 0; d < Dim; ++d) step[d] = state.next_position[d][i] - state.real.position[d][i];
-              step -= step.dot(n) * n;
+              step -= (step.dot(n) - 0.5 * dt * n.dot(state.velocity_of(i))) * n;
               for (int d = 0; d < Dim; ++d) state.next_position[d][i] = state.real.position[d][i] + step[d];
             }
             for (int d = 0; d < Dim; ++d) {

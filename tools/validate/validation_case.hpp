@@ -61,5 +61,6 @@ std::vector<Case> cantilever_cases();    // large-deflection cantilever vs the e
 std::vector<Case> plate_cases();         // oscillating plate (Gray, Monaghan & Swift 2001)
 std::vector<Case> column_cases();        // twisting column (3D)
 std::vector<Case> plasticity_cases();    // homogeneous elastoplastic paths (issue 16)
+std::vector<Case> footing_cases();       // strip footing on Tresca soil (issue 16)
 
 }  // namespace tsph::validate

@@ -160,7 +160,8 @@ struct CharacteristicBoundary {
       Mat stress1 = stress0;
       Vec velocity1;
       const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
-      // A symmetry plane: the normal velocity given (0), the tangential tractions (0).
+      // A symmetry plane (a smooth wall): the normal velocity given (the wall's, 0 for a
+      // fixed plane), the tangential tractions zero.
       const bool symmetry = condition.kind == BoundaryCondition<Dim>::Kind::symmetry;
       for (int k = 0; k < Dim; ++k) {
         const double invariant = k == 0 ? p_invariant : s_invariant[k];
@@ -169,8 +170,9 @@ struct CharacteristicBoundary {
           velocity1[k] = prescribed[k];
           stress1(0, k) = invariant + impedance * prescribed[k];
         } else {
-          stress1(0, k) = prescribed[k];
-          velocity1[k] = impedance > 0.0 ? (prescribed[k] - invariant) / impedance : 0.0;
+          const double traction = symmetry ? 0.0 : prescribed[k];
+          stress1(0, k) = traction;
+          velocity1[k] = impedance > 0.0 ? (traction - invariant) / impedance : 0.0;
         }
         stress1(k, 0) = stress1(0, k);
       }
