@@ -39,6 +39,13 @@ constexpr int kFieldCount = 4 * Dim + stress_component_count<Dim> + 6 +
 
 /// A value that identifies (particle id, field number); exact in both double and int.
 double tag(std::uint32_t id, int field) { return 1000.0 * field + id + 1.0; }
+/// The tag as a field of type T holds it: a byte field (the yield flag) keeps its low
+/// 8 bits (converting a double above 255 to a byte would be undefined behaviour).
+template <class T>
+T tag_as(std::uint32_t id, int field) {
+  if constexpr (std::is_same_v<T, std::uint8_t>) return static_cast<T>(static_cast<std::uint32_t>(tag(id, field)) & 0xffu);
+  else return static_cast<T>(tag(id, field));
+}
 
 /// Fills every field of particle i with tag(id[i], field number); ids stay as they are.
 template <int Dim>
@@ -49,7 +56,7 @@ int fill_with_tags(ParticleSet<Dim>& set) {
     using T = typename std::decay_t<decltype(values)>::value_type;
     if constexpr (!std::is_same_v<T, std::uint32_t>)  // the id field keeps the ids
       for (std::size_t i = 0; i < values.size(); ++i)
-        values[i] = static_cast<T>(tag(ids[i], field));
+        values[i] = tag_as<T>(ids[i], field);
     ++field;
   });
   return field;
@@ -154,7 +161,7 @@ TYPED_TEST(ParticleSetTest, PermuteReordersEveryFieldConsistently) {
     using T = typename std::decay_t<decltype(values)>::value_type;
     for (std::size_t p = 0; p < n; ++p)
       if constexpr (!std::is_same_v<T, std::uint32_t>) {
-        EXPECT_EQ(values[p], static_cast<T>(tag(set.id[p], field))) << "field " << field;
+        EXPECT_EQ(values[p], tag_as<T>(set.id[p], field)) << "field " << field;
       }
     ++field;
   });

@@ -149,6 +149,12 @@ class HourglassStiffness {
       for (std::uint32_t v : state.lists.real_from_virtual.neighbors(j))
         if (forward_fit_[v].weight_sum > 0.0 && state.within_support(real_points, j, virtual_points, v))
           force -= coefficient(forward_fit_[v], offset(rj, v), h) * virtual_value_[v];
+      // A symmetry plane (or a smooth wall) keeps its normal velocity: the force acts along it.
+      if (const std::int32_t b = state.boundary.slot[j];
+          b >= 0 && state.condition_of(j).kind == BoundaryCondition<Dim>::Kind::symmetry) {
+        const Vec& n = state.boundary.normal[static_cast<std::size_t>(b)];
+        force -= force.dot(n) * n;
+      }
       for (int d = 0; d < Dim; ++d) state.real.velocity[d][j] -= dt * stiffness * force[d] / state.real.mass[j];
     });
   }
