@@ -120,9 +120,10 @@ Result run_footing(const Options& o) {
   // Energy balance (per unit thickness), reported, not yet checked (issue 16 asks for 1 %;
   // docs/validation.md, Plasticity): the work of the footing, int F d(delta) over the
   // frames, against the elastic energy + the plastic work + the kinetic energy + what
-  // the velocity damping dissipated, int 2 c KE dt. The stored energy falls short by
-  // 45-50 % (and by 75-80 % with the soil elastic): the displacement field under the
-  // footing carries a checkerboard (hourglass) mode that the stress does not see.
+  // the velocity damping dissipated, int 2 c KE dt. The stored energy falls short, by
+  // 18 % at dx = B / 10 and 45 % at B / 4 (2026-11-26; more with the soil elastic): the
+  // displacement field under the footing carries a checkerboard (hourglass) mode that
+  // the stress does not see.
   {
     const double width = 2.0 * half_width, damping = run.file.damping;
     double external = 0.0, dissipated = 0.0;
