@@ -66,12 +66,7 @@ class DruckerPrager {
       : elastic_(std::move(elastic)), p_(parameters), perzyna_(perzyna) {
     if constexpr (Dim == 1)
       throw std::invalid_argument("material (drucker_prager): needs two or three dimensions (1D is uniaxial stress)");
-    if constexpr (Dim == 2)
-      if (elastic_.plane_mode() == PlaneMode::plane_stress)
-        throw std::invalid_argument(
-            "material: plasticity in 2D needs material.plane = \"strain\" (the plane-stress return "
-            "mapping is "
-            "not implemented)");
+    require_plane_strain(elastic_);
     check_parameter("drucker_prager", "cohesion", p_.cohesion, 0.0, true,
                     "give the cohesion c in Pa");
     if (!(p_.friction_angle >= 0.0 && p_.friction_angle < 90.0))

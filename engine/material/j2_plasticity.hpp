@@ -45,6 +45,17 @@ Eigen::Matrix3d embed_gradient(const Matrix<Dim>& grad_v) {
   return g;
 }
 
+/// The plastic models' one refusal of a 2D plane-stress elastic part (their returns
+/// keep sigma_zz as a stress of its own: plane strain).
+template <int Dim>
+void require_plane_strain(const LinearElastic<Dim>& elastic) {
+  if constexpr (Dim == 2)
+    if (elastic.plane_mode() == PlaneMode::plane_stress)
+      throw std::invalid_argument(
+          "material: plasticity in 2D needs material.plane = \"strain\" (the plane-stress return mapping, "
+          "sigma_zz = 0 with a plastic e_zz, is not implemented)");
+}
+
 template <int Dim>
 class J2Plasticity {
  public:
@@ -74,7 +85,7 @@ class J2Plasticity {
   J2Plasticity(LinearElastic<Dim> elastic, Linear hardening,
                std::optional<Perzyna> perzyna = std::nullopt)
       : elastic_(std::move(elastic)), linear_(hardening), perzyna_(perzyna) {
-    check_common();
+    require_plane_strain(elastic_);
     check_parameter("j2", "yield_stress", linear_.yield_stress, 0.0, true,
                     "give the initial yield stress in Pa");
     check_parameter("j2", "isotropic_hardening", linear_.isotropic_modulus, 0.0, false,
@@ -90,7 +101,7 @@ class J2Plasticity {
   }
   J2Plasticity(LinearElastic<Dim> elastic, JohnsonCook strength)
       : elastic_(std::move(elastic)), johnson_cook_(strength) {
-    check_common();
+    require_plane_strain(elastic_);
     const JohnsonCook& j = *johnson_cook_;
     check_parameter("johnson_cook", "A", j.a, 0.0, true, "give the initial yield stress A in Pa");
     check_parameter("johnson_cook", "B", j.b, 0.0, false, "give the hardening B >= 0 (Pa)");
@@ -189,14 +200,6 @@ class J2Plasticity {
   }
 
  private:
-  void check_common() const {
-    if constexpr (Dim == 2)
-      if (elastic_.plane_mode() == PlaneMode::plane_stress)
-        throw std::invalid_argument(
-            "material: plasticity in 2D needs material.plane = \"strain\" (the plane-stress return "
-            "mapping, "
-            "sigma_zz = 0 with a plastic e_zz, is not implemented)");
-  }
   bool has_kinematic() const { return !johnson_cook_ && linear_.kinematic_modulus > 0.0; }
   double homologous(double temperature) const {
     const JohnsonCook& j = *johnson_cook_;

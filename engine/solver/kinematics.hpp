@@ -98,8 +98,9 @@ struct Motion {
             bool trapezoid = !std::isfinite(state.next_position[0][i]);
             bool on_plane = false;  // a symmetry plane: the move keeps to the plane
             if (const std::int32_t b = state.boundary.slot[i]; b >= 0 && !trapezoid) {
-              trapezoid = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::velocity;
-              on_plane = state.condition_of(i).kind == BoundaryCondition<Dim>::Kind::symmetry;
+              const auto kind = state.condition_of(i).kind;
+              trapezoid = kind == BoundaryCondition<Dim>::Kind::velocity;
+              on_plane = kind == BoundaryCondition<Dim>::Kind::symmetry;
             }
             double moved = 0.0;
             if (on_plane) {  // along the plane as the material, across it as the (moving) wall
