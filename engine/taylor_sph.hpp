@@ -26,6 +26,7 @@
 #include "engine/solver/stabilisation/surface_filter.hpp"
 #include "engine/solver/stability_monitor.hpp"
 #include "engine/solver/state.hpp"
+#include "engine/solver/time_step.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -77,6 +78,9 @@ class TaylorSph {
   bool density_follows() const { return state_.density_follows(); }
   /// Radius of the neighbour searches: 2h plus the skin.
   double list_radius() const { return state_.list_radius(); }
+  /// The time a p-wave takes to cross the smallest current spacing (no CFL factor), and
+  /// where (engine/solver/time_step.hpp; time.adaptive).
+  typename StableTimeStep<Dim>::Limit stable_time_step() const { return StableTimeStep<Dim>::compute(state_); }
   double time() const { return state_.time; }
   /// Sets the clock (to land exactly on an output time after round-off).
   void set_time(double t) { state_.time = t; }

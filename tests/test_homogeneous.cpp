@@ -7,6 +7,9 @@
 #include "engine/case/case_build.hpp"
 #include "engine/case/case_file.hpp"
 #include "engine/validation/homogeneous.hpp"
+#include "tests/case_helpers.hpp"
+
+#include <Eigen/Eigenvalues>
 
 #include <gtest/gtest.h>
 
@@ -172,6 +175,51 @@ TEST(VelocityGradientKey, ImposesTheAffineFieldAtTheCurrentPositions) {
     worst = std::max(worst, (v - (a + g * x)).norm());
   }
   EXPECT_LT(worst, 1e-5 * (a.norm() + g.norm()));
+}
+
+// time.adaptive (engine/solver/time_step.hpp): on a lattice moved by an affine map x = F X
+// the limit is dx lambda_min(F) / c_p(rho0 / det F), exact, at every virtual particle.
+TEST(AdaptiveTimeStep, IsTheWaveCrossingOfTheSmallestStretch) {
+  const CaseFile c = load_case(testing_cases::shipped_case("homogeneous_3d.toml"), {"time.adaptive=true"});
+  EXPECT_TRUE(c.adaptive_time_step);
+  BuiltCase<3> b = build_case<3>(c);
+  TaylorSph<3> solver = make_solver(c, b);
+  const double dx = c.spacing, modulus = solver.material().elastic().p_wave_modulus();
+  const auto at_rest = solver.stable_time_step();
+  EXPECT_NEAR(at_rest.time_step, dx / std::sqrt(modulus / c.density), 1e-12 * at_rest.time_step);
+  EXPECT_NEAR(at_rest.stretch, 1.0, 1e-12);
+  Eigen::Matrix3d f;  // a flattening with shear and a turn: lambda_min well below 1
+  f << 1.3, 0.4, 0.1, -0.2, 0.25, 0.05, 0.3, 0.1, 1.1;
+  auto& state = solver.state();
+  for (auto* set : {&state.real, &state.virtual_})
+    for (std::size_t i = 0; i < set->size(); ++i) {
+      Eigen::Vector3d x0;
+      for (int d = 0; d < 3; ++d) x0[d] = set->initial_position[d][i];
+      const Eigen::Vector3d x = f * x0 + Eigen::Vector3d(0.7, -0.2, 0.1);
+      for (int d = 0; d < 3; ++d) set->position[d][i] = x[d];
+    }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(f.transpose() * f);
+  const double stretch = std::sqrt(eigen.eigenvalues()[0]), jacobian = f.determinant();
+  const auto limit = solver.stable_time_step();
+  EXPECT_NEAR(limit.stretch, stretch, 1e-12);
+  EXPECT_NEAR(limit.jacobian, jacobian, 1e-12);
+  EXPECT_NEAR(limit.time_step, dx * stretch / std::sqrt(modulus * jacobian / c.density), 1e-12 * limit.time_step);
+  EXPECT_LT(limit.particle, solver.virtual_particles().size());
+}
+
+TEST(AdaptiveTimeStep, KeyIsRefusedWhereItDoesNotApply) {
+  auto error = [](const std::vector<std::string>& overrides) {
+    try {
+      load_case(testing_cases::shipped_case("homogeneous_3d.toml"), overrides);
+    } catch (const CaseError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error({"time.adaptive=true", "method.kinematics=small_strain"}).find("time.adaptive"), std::string::npos);
+  EXPECT_NE(error({"time.adaptive=true", "method.kinematics=small_strain"}).find("updated_lagrangian"), std::string::npos);
+  EXPECT_NE(error({"time.adaptive=1"}).find("time.adaptive"), std::string::npos);
+  EXPECT_EQ(error({"time.adaptive=false"}), "");
 }
 
 }  // namespace

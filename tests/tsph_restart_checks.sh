@@ -60,5 +60,22 @@ grep -q "is not a tsph checkpoint" "$work/err" || fail "junk checkpoint message:
 "$tsph" run "$src/tools/cases/bar.toml" --quiet --restart "$first" --out "$work/k" 2>"$work/err"
 [ $? -eq 2 ] && grep -q "1D" "$work/err" || fail "checkpoint of another case: $(cat "$work/err")"
 
+
+# (3) The adaptive time step (time.adaptive, the Taylor bar's first microseconds, J2, the
+# impact face flattening): a restart takes the steps the uninterrupted run took.
+bar="$src/tools/cases/taylor_bar_3d.toml"
+bar_args=(--quiet --set time.end=3e-6 --set 'output.times=[1e-6, 2e-6, 3e-6]')
+"$tsph" run "$bar" "${bar_args[@]}" --out "$work/bar_whole" --threads 2 || fail "Taylor bar run"
+"$tsph" run "$bar" "${bar_args[@]}" --set output.checkpoint_every=10 --out "$work/bar_periodic" --threads 2 ||
+  fail "Taylor bar run with checkpoints"
+bar_first="$(ls "$work/bar_periodic"/checkpoint_*.bin | head -1)"
+[ -n "$bar_first" ] || fail "Taylor bar: no checkpoint written"
+"$tsph" run "$bar" "${bar_args[@]}" --restart "$bar_first" --out "$work/bar_continued" --threads 1 ||
+  fail "Taylor bar restart from $bar_first"
+cmp -s "$work/bar_whole/$(last_frame "$work/bar_whole")" "$work/bar_continued/$(last_frame "$work/bar_continued")" ||
+  fail "Taylor bar (adaptive step): the restart differs from the uninterrupted run"
+grep -q '"steps": ' "$work/bar_whole/summary.json" && [ "$(grep -o '"steps": [0-9]*' "$work/bar_whole/summary.json")" = \
+  "$(grep -o '"steps": [0-9]*' "$work/bar_continued/summary.json")" ] || fail "Taylor bar: step counts differ"
+
 echo "tsph_restart_checks: $failures failures"
 [ "$failures" -eq 0 ]

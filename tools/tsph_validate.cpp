@@ -55,7 +55,7 @@ std::vector<Case> registered_cases() {
   std::vector<Case> all;
   for (auto group : {validate::homogeneous_cases, validate::rotation_cases, validate::cantilever_cases,
                      validate::plate_cases, validate::column_cases, validate::plasticity_cases,
-                     validate::footing_cases}) {
+                     validate::footing_cases, validate::taylor_bar_cases}) {
     auto cases = group();
     all.insert(all.end(), cases.begin(), cases.end());
   }

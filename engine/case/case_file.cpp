@@ -338,6 +338,12 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
                          : "must lie in (0, 1]: positive (dt = cfl dx / c_p), and at most 1 (the two-step scheme is "
                            "unstable above CFL 1; time.force = true runs it anyway, to study the instability)").value_or(0.0);
     c.dt = t.real("dt", false, "1e-5", positive, kPositive + " (s)").value_or(0.0);
+    c.adaptive_time_step = t.boolean("adaptive").value_or(false);
+    if (c.adaptive_time_step && (has_dt || c.kinematics != Kinematics::updated_lagrangian))
+      context.invalid(t.get("adaptive", false, ""), t.path("adaptive"),
+                      has_dt ? "needs time.cfl, not a fixed time.dt: the step is cfl x dx lambda_min / c_p"
+                             : "applies to method.kinematics = \"updated_lagrangian\" only (in small strain the "
+                               "particles keep their spacing): remove it or move the particles");
     if (has_cfl && has_dt)
       context.errors.push_back(context.where(t.get("dt", false, "")) +
                                "time.cfl and time.dt are both given: keep one of them");

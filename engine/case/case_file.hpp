@@ -142,6 +142,9 @@ struct CaseFile {
   double end_time = 0.0;
   double cfl = 0.0;  ///< dt = cfl dx / c_p, or
   double dt = 0.0;   ///< a fixed step (exactly one of the two is non-zero)
+  /// time.adaptive: the step shrinks with the smallest current spacing,
+  /// dt = min(cfl dx / c_p, cfl dx lambda_min(F) / c_p(rho)) (engine/solver/time_step.hpp).
+  bool adaptive_time_step = false;
   bool force = false;  ///< accept a cfl above 1 (or dt above dx / c_p): it diverges (studies)
 
   std::vector<BoundarySpec> boundaries;

@@ -32,6 +32,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// time.adaptive: a step below this fraction of the initial one stops the run.
+constexpr double kSmallestAdaptiveStep = 1e-3;
+
+template <int Dim>
+std::string format_vector(const Vector<Dim>& x) {
+  std::string text = "(";
+  for (int d = 0; d < Dim; ++d) text += fmt::format("{}{:.6g}", d > 0 ? ", " : "", x[d]);
+  return text + ")";
+}
+
 template <int Dim>
 CaseOverview inspect(const CaseFile& c) {
   BuiltCase<Dim> b = build_case<Dim>(c);
@@ -344,10 +354,14 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   if (checkpoint) {
     solver->set_time(checkpoint->time);
     step_offset = checkpoint->steps;
+    // The solver counts on from the checkpoint's step: the updated-Lagrangian virtual
+    // particles are put back at their material points every 8th step (half_step.hpp), and
+    // a restart keeps that schedule (bit for bit) and the step numbers of diagnoses.
+    solver->state().counters.steps = checkpoint->steps;
     report.frames = checkpoint->frames;
     for (const auto& e : checkpoint->errors) report.errors.push_back({e.time, e.name, e.value});
   }
-  auto step_count = [&] { return step_offset + solver->counters().steps; };
+  auto step_count = [&] { return solver->counters().steps; };
   auto probes = open_probes<Dim>(c, solver->real(), out,
                                  checkpoint ? std::optional<double>(checkpoint->time) : std::nullopt);
   std::optional<std::size_t> rest_index;
@@ -437,9 +451,29 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     while (solver->time() < c.end_time - 1e-9 * dt) {
       const double target = next_time < c.output_times.size() ? c.output_times[next_time] : c.end_time;
       const double remaining = target - solver->time();
-      const bool lands = remaining <= dt * (1.0 + 1e-9);
+      double step_dt = dt;
+      if (c.adaptive_time_step) {  // time.adaptive: the smallest current spacing (engine/solver/time_step.hpp)
+        const auto limit = solver->stable_time_step();
+        step_dt = std::min(dt, c.cfl * limit.time_step);
+        if (!(step_dt >= kSmallestAdaptiveStep * dt)) {
+          message = fmt::format(
+              "solver: the adaptive time step fell to {:.4g} s, below {:g} of the initial {:.4g} s, at t = {:.6g} s: "
+              "the neighbourhood of virtual particle {} (at {}) is compressed to a principal stretch of {:.4g} "
+              "(det F = {:.4g}); likely cause: the body is crushed or has lost its particle order (use a finer spacing, "
+              "or end the run earlier)",
+              step_dt, kSmallestAdaptiveStep, dt, solver->time(), limit.particle,
+              format_vector(solver->virtual_particles().position_of(limit.particle)), limit.stretch, limit.jacobian);
+          report.time = solver->time();
+          report.steps = step_count();
+          writer.finish();
+          flush_probes(probes, out, /*close=*/true);
+          write_summary(out, c, o, report, b, "diverged", message);
+          throw RunDiverged(message);
+        }
+      }
+      const bool lands = remaining <= step_dt * (1.0 + 1e-9);
       try {
-        solver->step(lands ? remaining : dt);
+        solver->step(lands ? remaining : step_dt);
       } catch (const std::runtime_error& e) {  // the stepper's non-finite check (I/O errors pass)
         message = e.what();
         report.time = solver->time();
@@ -512,7 +546,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   report.steps = step_count();
   report.neighbor_builds = solver->counters().neighbor_builds;
   report.particle_steps_per_second = static_cast<double>(report.real_particles) *
-                                     static_cast<double>(solver->counters().steps) /
+                                     static_cast<double>(solver->counters().steps - step_offset) /
                                      std::max(report.wall_seconds, 1e-12);
   report.output_busy_seconds = writer.busy_seconds();
   report.output_wait_seconds = writer.waited_seconds();

@@ -136,6 +136,7 @@ std::string physics_record(const CaseFile& c) {
   r.add("solver.neighbor_skin", c.neighbor_skin);
   if (c.dt > 0.0) r.add("time.dt", c.dt);
   else r.add("time.cfl", c.cfl);
+  if (c.adaptive_time_step) r.add("time.adaptive", true);  // absent when off: older checkpoints still match
   for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
     const BoundarySpec& b = c.boundaries[k];
     const std::string p = fmt::format("boundary[{}].", k);

@@ -178,8 +178,12 @@ struct SolverState {
       boundary.profile.push_back(boundaries[static_cast<std::size_t>(b)].profile(initial_position_of(i)));
     }
     boundary.zero_step_fields();
-    double virtual_volume = 0.0;  // dx of the CFL in a diagnosis (stability_monitor.hpp)
-    for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.volume[q];
+    // dx of the CFL in a diagnosis (stability_monitor.hpp) and of the adaptive step
+    // (time_step.hpp): from the initial volumes m / rho0, so that a restart of a deformed
+    // body gets the dx of its start (its current volumes would give another).
+    double virtual_volume = 0.0;
+    const double reference_density = material.elastic().reference_density();
+    for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.mass[q] / reference_density;
     initial_spacing = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
   }
 

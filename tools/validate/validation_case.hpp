@@ -62,5 +62,6 @@ std::vector<Case> plate_cases();         // oscillating plate (Gray, Monaghan & 
 std::vector<Case> column_cases();        // twisting column (3D)
 std::vector<Case> plasticity_cases();    // homogeneous elastoplastic paths (issue 16)
 std::vector<Case> footing_cases();       // strip footing on Tresca soil (issue 16)
+std::vector<Case> taylor_bar_cases();    // Taylor bar impact (issue 16)
 
 }  // namespace tsph::validate

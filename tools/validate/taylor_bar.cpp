@@ -1,0 +1,196 @@
+// Taylor bar impact (issue 16, item 3; ../shared/reference/large-deformation.md section
+// 5): a copper cylinder (L0 = 32.4 mm, R0 = 3.2 mm, J2 with linear isotropic hardening)
+// hits a frictionless rigid wall at 227 m/s; at 80 us its impact face has spread to
+// R_f = 7.11-7.23 mm and its length is L_f = 21.42-21.48 mm (finite elements: Simo 1992,
+// Zienkiewicz et al. 1998, Foulk et al. 2021). tools/cases/taylor_bar_3d.toml, the whole
+// bar (no symmetry planes), updated Lagrangian with the adaptive time step; the real
+// particles are written here for each spacing (write_cylinder) and read as a particle
+// file.
+//
+// The body on the cubic lattice of spacing dx: the union of the lattice cells whose
+// centre lies in the circle of radius R0 (its area is pi R0^2 to a few per cent), the
+// real particles at their corners, each carrying a quarter of the area of every filled
+// cell it touches (the box's trapezoid rule), scaled so that the mass is exact. The
+// figures: R_f, the mean distance from the axis of the four impact-face particles that
+// start on the true radius, (+-R0, 0) and (0, +-R0) (the staircase's corners stand out
+// to R0 + 0.3 dx); L_f, the mean axial position of the far end's particles.
+#include "tools/validate/support.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace tsph::validate {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kLength = 32.4e-3, kRadius = 3.2e-3, kSpeed = 227.0, kEnd = 80e-6;
+// The finite-element references (large-deformation.md section 5): their range's middle.
+constexpr double kFinalRadius = 0.5 * (7.11e-3 + 7.23e-3), kFinalLength = 0.5 * (21.42e-3 + 21.48e-3);
+constexpr int kFrames = 16;
+
+/// The bar's length on the lattice: L0 rounded to a whole number of spacings (L0 = 10.125
+/// R0 is one at dx = R0 / 8 and R0 / 16 only; at R0 / 4 the bar is 1.2 % shorter, at
+/// R0 / 6 0.4 % longer, and the figures are compared as L_f / L0 and R_f / R0).
+double discrete_length(double dx) { return std::round(kLength / dx) * dx; }
+
+/// Group tags of the particle file (the case file's regions).
+constexpr int kInterior = 0, kSide = 1, kFarEnd = 2;
+
+/// The cylinder's real particles (see the file comment), written as a particle file:
+/// columns x, y, z, volume, vx, vy, vz, group; the impact face (x = 0) starts at rest on
+/// the wall, the rest at -kSpeed along x. Returns the particles' volumes by lattice node.
+std::map<std::array<int, 3>, double> write_cylinder(const std::string& path, double dx) {
+  const int nx = static_cast<int>(std::lround(discrete_length(dx) / dx)), nr = static_cast<int>(std::lround(kRadius / dx));
+  if (std::abs(nr * dx - kRadius) > 1e-9 * kRadius)
+    throw std::invalid_argument(fmt::format("taylor_bar: dx = {} must divide R0 = {}", dx, kRadius));
+  std::map<std::pair<int, int>, int> cells_at_node;  // filled cells touching each section node
+  int cells = 0;
+  for (int j = -nr - 1; j <= nr; ++j)
+    for (int k = -nr - 1; k <= nr; ++k)
+      if ((j + 0.5) * (j + 0.5) + (k + 0.5) * (k + 0.5) <= double(nr) * nr) {
+        ++cells;
+        for (int a = 0; a < 2; ++a)
+          for (int b = 0; b < 2; ++b) ++cells_at_node[{j + a, k + b}];
+      }
+  const double scale = kPi * kRadius * kRadius / (cells * dx * dx);
+  std::map<std::array<int, 3>, double> volumes;
+  std::ofstream out(path);
+  out << fmt::format("# Taylor bar: L0 = {} m, R0 = {} m, dx = {} m; written by tsph validate taylor_bar\n",
+                     nx * dx, kRadius, dx);
+  out << "x,y,z,volume,vx,vy,vz,group\n";
+  for (int i = 0; i <= nx; ++i)
+    for (const auto& [node, count] : cells_at_node) {
+      const double volume = (i == 0 || i == nx ? 0.5 : 1.0) * dx * dx * dx * 0.25 * count * scale;
+      // A node in one or two filled cells is on the side; one in three is a concave step
+      // of the staircase, which the solver counts as inside (docs/cases.md, regions).
+      const int group = i == nx ? kFarEnd : (count <= 2 ? kSide : kInterior);
+      out << fmt::format("{:.10g},{:.10g},{:.10g},{:.10g},{},0,0,{}\n", i * dx, node.first * dx, node.second * dx,
+                         volume, i == 0 ? 0.0 : -kSpeed, group);
+      volumes[{i, node.first, node.second}] = volume;
+    }
+  if (!out) throw std::runtime_error("taylor_bar: cannot write " + path);
+  return volumes;
+}
+
+Result run_taylor_bar(const Options& o) {
+  // Full: dx = R0 / 4 and R0 / 6 (the convergence table; 1.2 and 7 min on 2 cores: the
+  // flattened impact face takes the adaptive step to a fifth, 4 400 and 7 900 steps; R0 / 8
+  // would take about half an hour); quick: R0 / 4.
+  std::vector<int> divisions = o.quick ? std::vector<int>{4} : std::vector<int>{4, 6};
+  Result result;
+  Series convergence;
+  convergence.name = "convergence";
+  convergence.title = "Taylor bar at 80 us against dx";
+  convergence.x_label = "dx / R0";
+  convergence.y_label = "R_f / R0, L_f / L0";
+  convergence.columns = {"dx / R0", "R_f / R0", "L_f / L0", "ref R_f / R0", "ref L_f / L0"};
+  for (std::size_t run_index = 0; run_index < divisions.size(); ++run_index) {
+    const int n = divisions[run_index];
+    const double dx = kRadius / n;
+    const std::string name = fmt::format("r0_over_{}", n);
+    const fs::path particles = fs::path(o.out_dir) / (name + ".csv");
+    const auto volumes = write_cylinder(particles.string(), dx);
+    CaseRun run = run_case_file(o, "taylor_bar_3d.toml",
+                                {fmt::format("geometry.spacing={}", dx),
+                                 fmt::format("geometry.particle_file=\"{}\"", fs::absolute(particles).string()),
+                                 output_times(kEnd, kFrames)},
+                                name);
+    const std::string at = fmt::format(", dx = R0 / {}", n);
+    const double bar_length = discrete_length(dx);
+    Series history;
+    history.name = "history_" + name;
+    history.title = "Taylor bar" + at;
+    history.x_label = "t (us)";
+    history.y_label = "R / R0, L / L0";
+    history.columns = {"t (us)", "R / R0", "L / L0", "ref R_f / R0", "ref L_f / L0"};
+    const double rho = run.file.density, young = run.file.young_modulus, nu = run.file.poisson_ratio;
+    double radius = 0.0, length = 0.0, energy0 = 0.0, balance = 0.0, largest_strain = 0.0;
+    for (std::size_t f = 0; f < run.frames.size(); ++f) {
+      const auto& frame = run.frames[f];
+      const auto& x0 = array_of(frame, "initial_position");
+      const auto& u = array_of(frame, "displacement");
+      const auto& v = array_of(frame, "velocity");
+      const auto& s = array_of(frame, "stress");  // VTK order: xx yy zz xy yz xz
+      const auto& work = array_of(frame, "plastic_work");
+      const auto& strain = array_of(frame, "plastic_strain");
+      double r_sum = 0.0, r_count = 0.0, l_sum = 0.0, l_count = 0.0, kinetic = 0.0, stored = 0.0;
+      for (std::size_t p = 0; p < frame.point_count; ++p) {
+        const double* X = x0.data() + 3 * p;
+        const std::array<int, 3> node{static_cast<int>(std::lround(X[0] / dx)), static_cast<int>(std::lround(X[1] / dx)),
+                                      static_cast<int>(std::lround(X[2] / dx))};
+        const double volume = volumes.at(node);
+        const double* q = s.data() + 6 * p;
+        const double trace = q[0] + q[1] + q[2];
+        const double squares = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + 2.0 * (q[3] * q[3] + q[4] * q[4] + q[5] * q[5]);
+        stored += volume * (((1.0 + nu) * squares - nu * trace * trace) / (2.0 * young) + work[p]);
+        kinetic += 0.5 * rho * volume * (v[3 * p] * v[3 * p] + v[3 * p + 1] * v[3 * p + 1] + v[3 * p + 2] * v[3 * p + 2]);
+        largest_strain = std::max(largest_strain, strain[p]);
+        const bool on_axis_tip = (std::abs(node[1]) == n && node[2] == 0) || (node[1] == 0 && std::abs(node[2]) == n);
+        if (node[0] == 0 && on_axis_tip) {
+          r_sum += std::hypot(X[1] + u[3 * p + 1], X[2] + u[3 * p + 2]);
+          r_count += 1.0;
+        }
+        if (std::abs(X[0] - bar_length) < 1e-9 * bar_length) {
+          l_sum += X[0] + u[3 * p];
+          l_count += 1.0;
+        }
+      }
+      radius = r_sum / r_count;
+      length = l_sum / l_count;
+      if (f == 0) energy0 = kinetic + stored;
+      balance = std::max(balance, std::abs(kinetic + stored - energy0) / energy0);
+      history.rows.push_back({run.frame_times[f] * 1e6, radius / kRadius, length / bar_length, kFinalRadius / kRadius,
+                              kFinalLength / kLength});
+    }
+    result.series.push_back(std::move(history));
+    Check reached = no_divergence_check(run, result);
+    reached.figure += at;
+    result.checks.push_back(reached);
+    result.notes.push_back(fmt::format("dx = R0 / {}: {} real particles, {} steps (adaptive), {:.0f} s wall; largest "
+                                       "equivalent plastic strain {:.2f}; kinetic + elastic + plastic work off its "
+                                       "initial value by up to {:.1f} % (the hourglass stiffness's energy is not counted)",
+                                       n, run.report.real_particles, run.report.steps, run.wall_seconds, largest_strain,
+                                       100.0 * balance));
+    if (run.diverged) continue;
+    // The quick run (R0 / 4, four particles across the radius) is held to 5 % (it lies
+    // within 3 % of both references, in part by luck: R0 / 6 is further off); the full
+    // table's finest spacing to the issue's 3 %.
+    const bool finest = run_index + 1 == divisions.size();
+    const double tolerance = o.quick ? 0.05 : 0.03;
+    if (o.quick || finest) {
+      result.checks.push_back(relative_check("impact-face radius R_f / R0 at 80 us" + at, radius / kRadius,
+                                             kFinalRadius / kRadius, tolerance));
+      result.checks.push_back(relative_check("length L_f / L0 at 80 us" + at, length / bar_length,
+                                             kFinalLength / kLength, tolerance));
+      // The issue's 1 % energy balance: checked in the full version (6 % at R0 / 4: the
+      // scheme's dissipation at the impact and the hourglass stiffness's uncounted energy),
+      // reported in the quick one's notes.
+      if (!o.quick) result.checks.push_back(bound_check("energy balance, largest |E - E0| / E0" + at, balance, 0.01));
+    }
+    convergence.rows.push_back({1.0 / n, radius / kRadius, length / bar_length, kFinalRadius / kRadius,
+                                kFinalLength / kLength});
+  }
+  result.series.push_back(std::move(convergence));
+  return result;
+}
+
+}  // namespace
+
+std::vector<Case> taylor_bar_cases() {
+  return {{"taylor_bar", "Taylor bar impact (copper, 227 m/s, 80 us) against finite-element references", true,
+           run_taylor_bar}};
+}
+
+}  // namespace tsph::validate
