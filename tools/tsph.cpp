@@ -116,8 +116,9 @@ void print_overview(const CaseFile& c, const CaseOverview& v) {
              c.young_modulus, c.poisson_ratio, c.density,
              c.dimension == 2 ? (c.plane_mode == PlaneMode::plane_strain ? ", plane strain" : ", plane stress") : "",
              v.wave_speed);
-  fmt::print("  time: dt = {:.6g} s (CFL {:.3g}), end {} s: {} steps, {} output frames\n", v.dt,
-             v.dt * v.wave_speed / v.spacing, c.end_time, v.steps, v.frames);
+  fmt::print("  time: dt = {:.6g} s (CFL {:.3g}{}), end {} s: {}{} steps, {} output frames\n", v.dt,
+             v.dt * v.wave_speed / v.spacing, c.adaptive_time_step ? ", adaptive: smaller as the body flattens" : "",
+             c.end_time, c.adaptive_time_step ? "at least " : "", v.steps, v.frames);
   for (const auto& [name, count] : v.boundary_particles)
     fmt::print("  boundary '{}': {} real particles\n", name, count);
   if (!c.exact.empty()) fmt::print("  exact solution: {}\n", c.exact);
