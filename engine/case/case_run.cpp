@@ -447,6 +447,17 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     frame();
     record_probes(probes, solver->real(), 0.0);
   }
+  // A diverged run (the stepper's monitor, or the adaptive step collapsing) stops with
+  // the frames and probe rows of the steps before, each of which passed the monitor.
+  auto stop_diverged = [&](std::string diagnosis) {
+    message = std::move(diagnosis);
+    report.time = solver->time();
+    report.steps = step_count();
+    writer.finish();
+    flush_probes(probes, out, /*close=*/true);  // the step that failed wrote no row
+    write_summary(out, c, o, report, b, "diverged", message);
+    throw RunDiverged(message);
+  };
   {
     while (solver->time() < c.end_time - 1e-9 * dt) {
       const double target = next_time < c.output_times.size() ? c.output_times[next_time] : c.end_time;
@@ -455,33 +466,20 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
       if (c.adaptive_time_step) {  // time.adaptive: the smallest current spacing (engine/solver/time_step.hpp)
         const auto limit = solver->stable_time_step();
         step_dt = std::min(dt, c.cfl * limit.time_step);
-        if (!(step_dt >= kSmallestAdaptiveStep * dt)) {
-          message = fmt::format(
+        if (!(step_dt >= kSmallestAdaptiveStep * dt))
+          stop_diverged(fmt::format(
               "solver: the adaptive time step fell to {:.4g} s, below {:g} of the initial {:.4g} s, at t = {:.6g} s: "
               "the neighbourhood of virtual particle {} (at {}) is compressed to a principal stretch of {:.4g} "
               "(det F = {:.4g}); likely cause: the body is crushed or has lost its particle order (use a finer spacing, "
               "or end the run earlier)",
               step_dt, kSmallestAdaptiveStep, dt, solver->time(), limit.particle,
-              format_vector(solver->virtual_particles().position_of(limit.particle)), limit.stretch, limit.jacobian);
-          report.time = solver->time();
-          report.steps = step_count();
-          writer.finish();
-          flush_probes(probes, out, /*close=*/true);
-          write_summary(out, c, o, report, b, "diverged", message);
-          throw RunDiverged(message);
-        }
+              format_vector(solver->virtual_particles().position_of(limit.particle)), limit.stretch, limit.jacobian));
       }
       const bool lands = remaining <= step_dt * (1.0 + 1e-9);
       try {
         solver->step(lands ? remaining : step_dt);
       } catch (const std::runtime_error& e) {  // the stepper's non-finite check (I/O errors pass)
-        message = e.what();
-        report.time = solver->time();
-        report.steps = step_count();
-        writer.finish();  // the frames of the steps before: each passed the monitor
-        flush_probes(probes, out, /*close=*/true);  // their rows too (the step that failed wrote none)
-        write_summary(out, c, o, report, b, "diverged", message);
-        throw RunDiverged(message);
+        stop_diverged(e.what());
       }
       if (lands) solver->set_time(target);
       const std::int64_t step = step_count();

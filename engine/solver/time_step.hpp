@@ -8,10 +8,10 @@
 // ones over q's row, those within the support 2h of q in the initial configuration:
 // F = A B^-1 with A = sum_J dx_J dX_J^T, B = sum_J dX_J dX_J^T, dX_J = X_J - mean X,
 // dx_J = x_J - mean x: exact for every affine motion. It reads the real particles alone
-// (not the virtual ones' current positions, which a restart does not restore: they are
-// put back at their material points) and no kernel, and the row is cut in the initial
-// configuration (not by the list's skin), so a restart from a checkpoint takes the steps
-// the uninterrupted run took.
+// (not where the virtual ones have drifted) and no kernel, and the row is cut in the
+// initial configuration (not by the list's skin), so the limit is a function of the real
+// positions: a restart from a checkpoint takes the steps the uninterrupted run took
+// (tests/tsph_restart_checks.sh).
 #pragma once
 
 #include "engine/parallel.hpp"
@@ -57,20 +57,25 @@ struct StableTimeStep {
     const ParticleSet<Dim>& virt = state.virtual_;
     return parallel_for_with_scratch<NoScratch, Limit>(
         virt.size(), [&](std::size_t q, NoScratch&, Limit& limit) {
+          const auto row = state.lists.virtual_from_real.neighbors(q);
+          if (row.empty()) return;
+          // Offsets from a point of the row (X_q; the row's first current position) keep
+          // the sums well conditioned; the fit is centred below.
+          Vec reference_origin, current_origin;
+          for (int d = 0; d < Dim; ++d) {
+            reference_origin[d] = virt.initial_position[d][q];
+            current_origin[d] = real.position[d][row[0]];
+          }
           Vec reference_mean = Vec::Zero(), current_mean = Vec::Zero();
           Mat current = Mat::Zero(), reference = Mat::Zero();  // sum x X^T, sum X X^T, then centred
           double count = 0.0;
-          for (const std::uint32_t j : state.lists.virtual_from_real.neighbors(q)) {
+          for (const std::uint32_t j : row) {
             Vec x, X;
-            double distance2 = 0.0;
             for (int d = 0; d < Dim; ++d) {
-              x[d] = real.position[d][j];
-              X[d] = real.initial_position[d][j];
-              distance2 += (X[d] - virt.initial_position[d][q]) * (X[d] - virt.initial_position[d][q]);
-              X[d] -= virt.initial_position[d][q];  // offsets keep the sums well conditioned
-              x[d] -= real.position[d][state.lists.virtual_from_real.neighbors(q)[0]];
+              x[d] = real.position[d][j] - current_origin[d];
+              X[d] = real.initial_position[d][j] - reference_origin[d];
             }
-            if (distance2 > support * support) continue;
+            if (X.squaredNorm() > support * support) continue;
             reference_mean += X;
             current_mean += x;
             current.noalias() += x * X.transpose();

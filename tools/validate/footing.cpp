@@ -64,10 +64,7 @@ Result run_footing(const Options& o) {
       double k = 0.0, e = 0.0;
       for (std::size_t i = 0; i < frame.point_count; ++i) {
         const double v = volume_at(x0[3 * i], x0[3 * i + 1]);
-        const double* p = s.data() + 6 * i;  // xx yy zz xy yz xz
-        const double trace = p[0] + p[1] + p[2];
-        const double squares = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + 2.0 * (p[3] * p[3] + p[4] * p[4] + p[5] * p[5]);
-        e += v * (((1.0 + nu) * squares - nu * trace * trace) / (2.0 * young) + plastic_work[i]);
+        e += v * (elastic_energy_density(s.data() + 6 * i, young, nu) + plastic_work[i]);
         k += 0.5 * rho * v *
              (velocity[3 * i] * velocity[3 * i] + velocity[3 * i + 1] * velocity[3 * i + 1]);
       }

@@ -45,6 +45,14 @@ Check bound_check(std::string figure, double value, double bound);
 /// The run reached its end: FAIL with the diagnosis as a note when it diverged.
 Check no_divergence_check(const CaseRun& run, Result& result);
 
+/// The elastic (complementary) energy per unit volume of a stress in VTK order
+/// (xx yy zz xy yz xz), isotropic: ((1 + nu) s:s - nu (tr s)^2) / (2 E).
+inline double elastic_energy_density(const double* s, double young, double nu) {
+  const double trace = s[0] + s[1] + s[2];
+  const double squares = s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + 2.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]);
+  return ((1.0 + nu) * squares - nu * trace * trace) / (2.0 * young);
+}
+
 /// "[a, b, c]" for a --set override of a TOML array.
 std::string toml_array(const std::vector<double>& values);
 /// `count` output times evenly spaced over (0, end].

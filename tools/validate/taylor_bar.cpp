@@ -133,10 +133,7 @@ Result run_taylor_bar(const Options& o) {
         const std::array<int, 3> node{static_cast<int>(std::lround(X[0] / dx)), static_cast<int>(std::lround(X[1] / dx)),
                                       static_cast<int>(std::lround(X[2] / dx))};
         const double volume = volumes.at(node);
-        const double* q = s.data() + 6 * p;
-        const double trace = q[0] + q[1] + q[2];
-        const double squares = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + 2.0 * (q[3] * q[3] + q[4] * q[4] + q[5] * q[5]);
-        stored += volume * (((1.0 + nu) * squares - nu * trace * trace) / (2.0 * young) + work[p]);
+        stored += volume * (elastic_energy_density(s.data() + 6 * p, young, nu) + work[p]);
         kinetic += 0.5 * rho * volume * (v[3 * p] * v[3 * p] + v[3 * p + 1] * v[3 * p + 1] + v[3 * p + 2] * v[3 * p + 2]);
         largest_strain = std::max(largest_strain, strain[p]);
         const bool on_axis_tip = (std::abs(node[1]) == n && node[2] == 0) || (node[1] == 0 && std::abs(node[2]) == n);
