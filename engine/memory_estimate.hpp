@@ -13,8 +13,10 @@
 //     updated-Lagrangian virtual motion (TaylorSph::place_at_material_point,
 //     the default) and the hourglass stiffness (which also builds lists of its own: not
 //     modelled);
-//   * no v^n (the displacement takes dt/2 v^n before the full step; only the
-//     conservative momentum option stores it, Dim doubles: not modelled);
+//   * no v^n (the displacement takes dt/2 v^n before the full step; the conservative
+//     momentum option stores it, Dim doubles: not modelled), except with the energy
+//     ledger (SolverSettings::energy_ledger, `energy_ledger` here: + Dim doubles; with
+//     the hourglass stiffness its kicks, Dim more: not modelled);
 //   * one half-step neighbour list at a time: 32-bit row starts (4 B) plus 4 B per
 //     pair, with pi (2 alpha)^2 (2D) or 4/3 pi (2 alpha)^3 (3D) pairs per row (the
 //     support ball in lattice cells, an upper bound of the measured count);
@@ -49,7 +51,7 @@ namespace tsph {
 
 template <int Dim>
 double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false, double skin = 0.0,
-                                        bool keep_virtual_fields = false) {
+                                        bool keep_virtual_fields = false, bool energy_ledger = false) {
   if (!(alpha > 0.0) || !std::isfinite(alpha))
     throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
                                 " must be positive");
@@ -58,7 +60,7 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
   const double real_set = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
   const double virtual_set =
       keep_virtual_fields ? real_set : 8.0 * (3 * Dim + stress_component_count<Dim> + 3);
-  const double sets = real_set + virtual_set;
+  const double sets = real_set + virtual_set + (energy_ledger ? 8.0 * Dim : 0.0);
   const double radius = 2.0 * alpha * (1.0 + skin);  // list radius in lattice spacings
   const double pairs = Dim == 1   ? 2.0 * radius
                        : Dim == 2 ? std::numbers::pi * radius * radius

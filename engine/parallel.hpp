@@ -6,8 +6,10 @@
 // results do not depend on the thread count.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -58,6 +60,23 @@ std::size_t parallel_blocks(std::size_t n, Body&& body) {
   const std::size_t blocks = static_cast<std::size_t>(threads > 0 ? threads : 1);
   parallel_for(blocks, [&](std::size_t b) { body(b, n * b / blocks, n * (b + 1) / blocks); });
   return blocks;
+}
+
+/// sum_i value(i) for i in [0, n), in fixed blocks of 4096 summed in order: the same
+/// bits on any thread count (the blocks do not follow the threads).
+template <class Value>
+double deterministic_sum(std::size_t n, Value&& value) {
+  constexpr std::size_t block = 4096;
+  const std::size_t blocks = (n + block - 1) / block;
+  std::vector<double> partial(blocks, 0.0);
+  parallel_for(blocks, [&](std::size_t b) {
+    double sum = 0.0;
+    for (std::size_t i = b * block, end = std::min(n, (b + 1) * block); i < end; ++i) sum += value(i);
+    partial[b] = sum;
+  });
+  double total = 0.0;
+  for (double p : partial) total += p;
+  return total;
 }
 
 /// Number of threads a parallel region would use.

@@ -17,6 +17,7 @@
 #include "engine/solver/boundary/characteristics.hpp"
 #include "engine/solver/boundary/conservative_momentum.hpp"
 #include "engine/solver/boundary/free_edge.hpp"
+#include "engine/solver/energy_ledger.hpp"
 #include "engine/solver/full_step.hpp"
 #include "engine/solver/half_step.hpp"
 #include "engine/solver/kinematics.hpp"
@@ -158,6 +159,8 @@ class TaylorSph {
   // The stages that keep scratch between steps; the others are stateless.
   ConservativeMomentum<Dim> momentum_;
   HourglassStiffness<Dim> hourglass_stiffness_;
+  EnergyAccounting<Dim> energy_;
+  std::vector<Vector<Dim>> no_kicks_;  ///< the ledger's hourglass kicks with the stiffness off
   SurfaceHourglassFilter<Dim> surface_filter_;
   StabilityMonitor<Dim> monitor_;
 };
@@ -189,6 +192,8 @@ void TaylorSph<Dim>::advance_fields(double dt) {
   const SolverSettings<Dim>& settings = state_.settings;
   const double t_new = state_.time + dt;
   visit_stages([&](const auto& kernel, const auto& model) {
+    const bool ledger = settings.energy_ledger;
+    if (ledger) energy_.begin(state_);
     CharacteristicBoundary<Dim>::gradients_at_n(state_, kernel);  // grad U^n at the boundary
     HalfStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (3): real -> virtual
     Motion<Dim>::first_half(state_, dt);                            // to x^{n+1/2} (or u += dt/2 v^n)
@@ -198,10 +203,17 @@ void TaylorSph<Dim>::advance_fields(double dt) {
     // omega^2 dt^2 / 2 per step).
     if (settings.conservative_momentum) momentum_.store_weights(state_, kernel);
     FullStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (4): virtual -> real
+    if (ledger) energy_.before_boundary_stage(state_);
     CharacteristicBoundary<Dim>::apply(state_, model, dt, t_new);   // boundary state at n+1
+    if (ledger) energy_.after_boundary_stage(state_, /*overwrite=*/true);
     if (settings.conservative_momentum) momentum_.apply(state_, dt, t_new);
     if (settings.hourglass_stiffness > 0.0) hourglass_stiffness_.apply(state_, kernel, dt);
-    if (settings.hourglass_coefficient > 0.0) surface_filter_.apply(state_, kernel);
+    if (settings.hourglass_coefficient > 0.0) {
+      if (ledger) energy_.before_boundary_stage(state_);
+      surface_filter_.apply(state_, kernel);
+      if (ledger) energy_.after_boundary_stage(state_, /*overwrite=*/false);
+    }
+    if (ledger) energy_.end(state_, dt, settings.hourglass_stiffness > 0.0 ? hourglass_stiffness_.kicks() : no_kicks_);
   });
 }
 

@@ -14,6 +14,8 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -59,6 +61,9 @@ output::Checkpoint<2> small_checkpoint() {
   c.real_series = {{0.0, "particles_000000.vtu"}, {1e-3, "particles_000001.vtu"}};
   c.errors = {{1e-3, "velocity_x_l2_percent", 2.5}};
   c.physics = "dimension = 2\nmaterial.E = 80000000\n";
+  c.energy.boundary = {12.5, -0.25};
+  c.energy.hourglass = -3.0;
+  c.energy.initial_energy = 7.0;
   return c;
 }
 
@@ -86,6 +91,32 @@ TEST(CheckpointIntegrity, RoundTripKeepsStateAndPhysics) {
   EXPECT_EQ(header.steps, 42);
   EXPECT_EQ(header.physics, written.physics);
   EXPECT_THROW((void)output::read_checkpoint<3>((dir / "k.bin").string()), output::CheckpointError);
+  fs::remove_all(dir);
+}
+
+// Format 4 holds the energy ledger; a format 3 file (the same without it) is read with
+// an empty ledger.
+TEST(CheckpointIntegrity, EnergyLedgerRoundTripAndFormatThree) {
+  const fs::path dir = scratch("ledger");
+  const auto written = small_checkpoint();
+  output::write_checkpoint((dir / "k.bin").string(), written);
+  const auto read = output::read_checkpoint<2>((dir / "k.bin").string());
+  EXPECT_EQ(read.energy.boundary, written.energy.boundary);
+  EXPECT_EQ(read.energy.hourglass, -3.0);
+  EXPECT_EQ(read.energy.initial_energy, 7.0);
+  // Format 3: magic "TSPHCKP3", the ledger's bytes (6 doubles, two counts, 2 doubles) gone.
+  std::vector<char> bytes = read_all(dir / "k.bin");
+  bytes.resize(bytes.size() - (6 * 8 + 2 * 8 + 2 * 8));
+  bytes[7] = '3';
+  const std::uint64_t body = bytes.size() - 20;
+  const std::uint32_t crc = output::detail::crc32_of(bytes.data() + 20, body);
+  std::memcpy(bytes.data() + 8, &body, sizeof body);
+  std::memcpy(bytes.data() + 16, &crc, sizeof crc);
+  const auto old = output::parse_checkpoint<2>(bytes, "k3.bin");
+  EXPECT_EQ(old.steps, 42);
+  EXPECT_EQ(old.real.stress[2], written.real.stress[2]);
+  EXPECT_TRUE(old.energy.boundary.empty());
+  EXPECT_TRUE(std::isnan(old.energy.initial_energy));
   fs::remove_all(dir);
 }
 

@@ -298,6 +298,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.damping = c.damping;
   b.settings.hourglass_coefficient = c.hourglass;
   b.settings.hourglass_stiffness = c.hourglass_stiffness;
+  b.settings.energy_ledger = c.energy_every > 0;
   b.settings.velocity_wall = c.velocity_wall == CaseFile::VelocityWall::wall_gradient
                                  ? SolverSettings<Dim>::VelocityWall::wall_gradient
                                  : SolverSettings<Dim>::VelocityWall::characteristics;

@@ -502,6 +502,8 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.output_virtual = o.boolean("virtual").value_or(false);
     c.probe_every = o.integer("probe_every", false, "10", [](std::int64_t n) { return n >= 1; },
                               "must be >= 1 (steps)").value_or(1);
+    c.energy_every = o.integer("energy_every", false, "10", [](std::int64_t n) { return n >= 0; },
+                               "must be >= 0 (steps; 0: no energy ledger and no energy.csv)").value_or(10);
     c.checkpoint_every = o.integer("checkpoint_every", false, "1000", [](std::int64_t n) { return n >= 0; },
                                    "must be >= 0 (steps; 0: a checkpoint only when interrupted)").value_or(0);
     for (Table p : o.tables("probe")) {

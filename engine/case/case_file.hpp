@@ -171,6 +171,8 @@ struct CaseFile {
   bool output_virtual = false;
   std::vector<ProbeSpec> probes;
   std::int64_t probe_every = 1;
+  /// Steps between the rows of energy.csv (also written at every frame); 0: no ledger.
+  std::int64_t energy_every = 10;
   std::int64_t checkpoint_every = 0;  ///< steps; 0: only on interruption
 
   // [exact]

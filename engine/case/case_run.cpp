@@ -170,6 +170,84 @@ output::VtuFrame snapshot(const ParticleSet<Dim>& p, const CaseFile& c, const Bu
   return f;
 }
 
+/// Opens a CSV output file: a new one with `header`, or, when the run continues from a
+/// checkpoint at `restart_time` and the file exists, that file with its header and its
+/// rows up to that time (the later rows are the interrupted run's; they come again).
+std::ofstream open_csv(const fs::path& path, const std::string& header, std::optional<double> restart_time) {
+  std::string kept = header;
+  if (restart_time && fs::exists(path)) {
+    std::ifstream in(path);
+    std::string line;
+    kept.clear();
+    while (std::getline(in, line)) {
+      const bool row = !line.empty() && (std::isdigit(static_cast<unsigned char>(line[0])) || line[0] == '-');
+      // The rows print 11 digits: a row at the checkpoint's own time may read above it.
+      if (row && std::stod(line) > *restart_time + 1e-9 * std::abs(*restart_time)) break;
+      kept += line + "\n";
+    }
+  }
+  std::ofstream file(path, std::ios::trunc);
+  file << kept;
+  if (!file) throw_output_error(path.string(), "open", errno);
+  return file;
+}
+
+/// A boundary condition's name as a CSV column: letters, digits and '_' (others become '_').
+std::string column_name(std::string name) {
+  for (char& ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return name;
+}
+
+/// energy.csv (output.energy_every): the energies and the works of the ledger
+/// (engine/solver/energy_ledger.hpp), and what the scheme itself leaves unbalanced.
+template <int Dim>
+class EnergyFile {
+ public:
+  EnergyFile(const CaseFile& c, const TaylorSph<Dim>& solver, const fs::path& out, std::optional<double> restart_time)
+      : path_(out / "energy.csv") {
+    if (c.energy_every <= 0) return;
+    std::string header = "t,step,kinetic,elastic,plastic_work,body_force,damping";
+    for (const auto& condition : solver.state().boundaries) header += ",boundary_" + column_name(condition.name);
+    header += ",hourglass,surface_filter,energy_change,external_work,balance_error,boundary_overwrite,hourglass_energy\n";
+    file_ = open_csv(path_, header, restart_time);
+    open_ = true;
+  }
+  /// A row at the solver's time (once per time).
+  void record(TaylorSph<Dim>& solver) {
+    if (!open_ || solver.time() == last_time_) return;
+    last_time_ = solver.time();
+    SolverState<Dim>& state = solver.state();
+    EnergyLedger& l = state.energy;
+    l.boundary.resize(state.boundaries.size(), 0.0);
+    const double kinetic = EnergyAccounting<Dim>::kinetic(state), elastic = EnergyAccounting<Dim>::elastic(state),
+                 plastic = EnergyAccounting<Dim>::plastic_work(state);  // as EnergyAccounting::mechanical
+    if (std::isnan(l.initial_energy)) l.initial_energy = kinetic + elastic + plastic;
+    const double change = kinetic + elastic + plastic - l.initial_energy, external = l.external_work();
+    std::string line = fmt::format("{:.10e},{},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e}", solver.time(),
+                                   state.counters.steps, kinetic, elastic, plastic, l.body_force, l.damping);
+    for (double w : l.boundary) line += fmt::format(",{:.10e}", w);
+    line += fmt::format(",{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e}\n", l.hourglass, l.surface_filter,
+                        change, external, change - external, l.boundary_overwrite, l.hourglass_energy);
+    file_ << line;
+  }
+  /// Flushes (and closes if `close`); a failed write throws OutputError naming the file.
+  void flush(bool close = false) {
+    if (!open_) return;
+    errno = 0;
+    file_.flush();
+    if (close) file_.close();
+    if (!file_) throw_output_error(path_.string(), "write", errno != 0 ? errno : EIO);
+    if (close) open_ = false;
+  }
+
+ private:
+  fs::path path_;
+  std::ofstream file_;
+  bool open_ = false;
+  double last_time_ = -1.0;
+};
+
 template <int Dim>
 struct Probe {
   std::string name;
@@ -205,31 +283,12 @@ std::vector<std::unique_ptr<Probe<Dim>>> open_probes(const CaseFile& c, const Pa
         }
       }
     }
-    const fs::path path = out / ("probe_" + s.name + ".csv");
-    if (restart_time && fs::exists(path)) {
-      // Continue the file: keep its header and the rows up to the checkpoint.
-      std::ifstream in(path);
-      std::string kept, line;
-      while (std::getline(in, line)) {
-        const bool row = !line.empty() && (std::isdigit(static_cast<unsigned char>(line[0])) || line[0] == '-');
-        if (row && std::stod(line) > *restart_time) break;
-        kept += line + "\n";
-      }
-      in.close();
-      p->file.open(path, std::ios::trunc);
-      p->file << kept;
-      if (!p->file) throw_output_error(path.string(), "open", errno);
-      probes.push_back(std::move(p));
-      continue;
-    }
-    p->file.open(path);
-    if (!p->file) throw_output_error(path.string(), "open", errno);
     const char* axes[] = {"x", "y", "z"};
-    std::string header = "t";
+    std::string header = "t";  // the x0 columns name the particle
     for (const char* prefix : {"x0_", "u", "v"})
       for (int d = 0; d < Dim; ++d) header += std::string(",") + prefix + axes[d];
     header += ",sxx,syy,szz,sxy,syz,sxz,von_mises\n";
-    p->file << header;  // the x0 columns name the particle
+    p->file = open_csv(out / ("probe_" + s.name + ".csv"), header, restart_time);
     probes.push_back(std::move(p));
   }
   return probes;
@@ -358,12 +417,14 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     // particles are put back at their material points every 8th step (half_step.hpp), and
     // a restart keeps that schedule (bit for bit) and the step numbers of diagnoses.
     solver->state().counters.steps = checkpoint->steps;
+    solver->state().energy = checkpoint->energy;  // the works booked before it (format 3: none)
     report.frames = checkpoint->frames;
     for (const auto& e : checkpoint->errors) report.errors.push_back({e.time, e.name, e.value});
   }
   auto step_count = [&] { return solver->counters().steps; };
   auto probes = open_probes<Dim>(c, solver->real(), out,
                                  checkpoint ? std::optional<double>(checkpoint->time) : std::nullopt);
+  EnergyFile<Dim> energy(c, *solver, out, checkpoint ? std::optional<double>(checkpoint->time) : std::nullopt);
   std::optional<std::size_t> rest_index;
   for (const auto& p : probes)
     if (p->name == c.rest_probe) rest_index = p->index;
@@ -394,10 +455,12 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     k.virtual_series = virtual_series;
     for (const auto& e : report.errors) k.errors.push_back({e.time, e.name, e.value});
     k.physics = physics;
+    k.energy = solver->state().energy;
     const fs::path path = out / fmt::format("checkpoint_{:010d}.bin", k.steps);
     output::write_checkpoint((path).string(), k);
     prune_checkpoints(out.string(), path.string());  // issue 15: also those from before a restart
     flush_probes(probes, out);
+    energy.flush();
     if (checkpoints.empty() || checkpoints.back() != path.string()) checkpoints.push_back(path.string());
     if (checkpoints.size() > 2) {
       std::error_code ec;
@@ -434,6 +497,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
       }
     });
     flush_probes(probes, out);
+    energy.flush();
   };
 
   output::ProgressLine progress(o.progress, o.quiet, c.end_time, report.real_particles);
@@ -446,6 +510,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   if (!checkpoint) {
     frame();
     record_probes(probes, solver->real(), 0.0);
+    energy.record(*solver);
   }
   // A diverged run (the stepper's monitor, or the adaptive step collapsing) stops with
   // the frames and probe rows of the steps before, each of which passed the monitor.
@@ -455,6 +520,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     report.steps = step_count();
     writer.finish();
     flush_probes(probes, out, /*close=*/true);  // the step that failed wrote no row
+    energy.flush(/*close=*/true);
     write_summary(out, c, o, report, b, "diverged", message);
     throw RunDiverged(message);
   };
@@ -490,6 +556,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
       }
       if (c.output_every > 0 && step % c.output_every == 0) write = true;
       if (step % c.probe_every == 0 || write) record_probes(probes, solver->real(), solver->time());
+      if (c.energy_every > 0 && (step % c.energy_every == 0 || write)) energy.record(*solver);
       if (o.on_step) o.on_step({solver->time(), step, solver->kinetic_energy(), solver->strain_energy()});
       if (resting && solver->time() >= c.rest_after) {
         // At rest: the speed (of the rest probe, else the fastest real particle) below
@@ -535,6 +602,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     record_probes(probes, solver->real(), solver->time());
     frame();
   }
+  energy.record(*solver);
   if (c.checkpoint_every > 0 || report.status == RunReport::Status::interrupted) write_checkpoint();
   progress.finish(step_count(), solver->time());
   writer.finish();
@@ -549,6 +617,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   report.output_busy_seconds = writer.busy_seconds();
   report.output_wait_seconds = writer.waited_seconds();
   flush_probes(probes, out, /*close=*/true);
+  energy.flush(/*close=*/true);
   write_summary(out, c, o, report, b, status_name(report.status), message);
   return report;
 }

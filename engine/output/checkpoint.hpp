@@ -5,9 +5,10 @@
 // the next in small-strain runs: its neighbour lists, normals and boundary slots are
 // rebuilt from the particles when it is constructed.
 //
-// Format 3 (issue 16: the plastic fields of ParticleSet, empty in elastic runs; format 2,
-// "TSPHCKP2", is refused naming its format) and, as format 2 (issue 15,
-// docs/reliability.md): the magic "TSPHCKP3", the byte count of the
+// Format 4 (the energy ledger, engine/solver/energy_ledger.hpp, after the error records;
+// format 3 is read with an empty ledger), format 3 (issue 16: the plastic fields of
+// ParticleSet, empty in elastic runs; format 2, "TSPHCKP2", is refused naming its
+// format) and, as format 2 (issue 15, docs/reliability.md): the magic "TSPHCKP4", the byte count of the
 // body (uint64) and zlib's crc32 of the body (uint32), then the body: the record of the
 // case's resolved physics (engine/case/physics_record.hpp: one "key = value" line per
 // key, and its crc32) followed by the state. A damaged file (a flipped bit, overwritten
@@ -19,6 +20,7 @@
 
 #include "engine/output/vtu_writer.hpp"
 #include "engine/particle_set.hpp"
+#include "engine/solver/settings.hpp"
 
 #include <cstdint>
 #include <algorithm>
@@ -58,6 +60,8 @@ struct Checkpoint {
   std::vector<ErrorEntry> errors;
   /// The resolved physics of the case that wrote it (physics_record.hpp).
   std::string physics;
+  /// The works booked so far (empty when the run keeps no ledger or the file is of format 3).
+  EnergyLedger energy;
 };
 
 /// What can be checked of a checkpoint without knowing its dimension: written whole
@@ -70,11 +74,13 @@ struct CheckpointHeader {
   std::int32_t dimension = 0;
   double time = 0.0;
   std::int64_t steps = 0;
+  int format = 4;  ///< 3: no energy ledger
 };
 
 namespace detail {
 
-constexpr char kCheckpointMagic[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '3'};
+constexpr char kCheckpointMagic[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '4'};
+constexpr char kCheckpointMagicFormat3[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '3'};
 constexpr char kCheckpointMagicFormat1[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '1'};
 constexpr char kCheckpointMagicFormat2[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '2'};
 /// Magic, body size, body checksum.
@@ -210,6 +216,11 @@ void write_checkpoint(const std::string& path, const Checkpoint<Dim>& c) {
     b.put_string(e.name);
     b.put(e.value);
   }
+  const EnergyLedger& l = c.energy;
+  for (double w : {l.body_force, l.damping, l.hourglass, l.surface_filter, l.boundary_overwrite, l.initial_energy})
+    b.put(w);
+  b.put<std::uint64_t>(l.boundary.size());  // the count get_vector checks against
+  b.put_vector(l.boundary);
   std::vector<char>& bytes = b.data();
   const std::uint64_t body = bytes.size() - detail::kCheckpointPrefixBytes;
   const std::uint32_t crc = detail::crc32_of(bytes.data() + detail::kCheckpointPrefixBytes, body);
@@ -234,7 +245,9 @@ inline CheckpointHeader verify_checkpoint(Reader& r, std::size_t file_bytes, con
   if (std::memcmp(magic, kCheckpointMagicFormat2, 8) == 0)
     throw CheckpointError(where + " is of format 2 (tsph before issue 16), which holds no plastic state: start the "
                           "run again (or continue it with the tsph that wrote it)");
-  if (std::memcmp(magic, kCheckpointMagic, 8) != 0) throw CheckpointError("'" + path + "' is not a tsph checkpoint");
+  const bool format3 = std::memcmp(magic, kCheckpointMagicFormat3, 8) == 0;
+  if (!format3 && std::memcmp(magic, kCheckpointMagic, 8) != 0)
+    throw CheckpointError("'" + path + "' is not a tsph checkpoint");
   if (file_bytes < kCheckpointPrefixBytes)
     throw CheckpointError(where + " is damaged: size check failed (truncated to " + std::to_string(file_bytes) +
                           " bytes, in its header)");
@@ -251,6 +264,7 @@ inline CheckpointHeader verify_checkpoint(Reader& r, std::size_t file_bytes, con
                           ", recorded " + std::to_string(crc) + ")");
   CheckpointHeader h;
   h.path = path;
+  h.format = format3 ? 3 : 4;
   h.checksum = crc;
   try {
     h.physics_checksum = r.get<std::uint32_t>();
@@ -322,6 +336,15 @@ Checkpoint<Dim> parse_checkpoint(std::vector<char> data, const std::string& path
       e.time = r.get<double>();
       e.name = r.get_string();
       e.value = r.get<double>();
+    }
+    if (h.format >= 4) {
+      EnergyLedger& l = c.energy;
+      for (double* w : {&l.body_force, &l.damping, &l.hourglass, &l.surface_filter, &l.boundary_overwrite,
+                        &l.initial_energy})
+        *w = r.get<double>();
+      const auto conditions = r.get<std::uint64_t>();
+      if (conditions > size) throw std::runtime_error("checkpoint '" + path + "' is damaged (energy ledger size)");
+      r.get_vector(l.boundary, conditions);
     }
     if (!r.at_end()) throw std::runtime_error("checkpoint '" + path + "' is damaged (trailing bytes)");
     return c;

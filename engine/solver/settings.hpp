@@ -10,7 +10,9 @@
 #include "neighbor/spatial_order.hpp"
 
 #include <cstdint>
+#include <limits>
 #include <string_view>
+#include <vector>
 
 namespace tsph {
 
@@ -33,6 +35,10 @@ struct SolverSettings {
   Vector<Dim> body_force = Vector<Dim>::Zero();  ///< b, per unit mass
   /// Velocity damping c (1/s): dv/dt = ... - c v (dynamic relaxation to a static state).
   double damping = 0.0;
+  /// Book the work of the boundaries, the body force, the damping and the stabilisations
+  /// (SolverState::energy, energy_ledger.hpp): a copy of v^n and two or three passes over
+  /// the real particles per step. Off: none.
+  bool energy_ledger = false;
   /// Surface hourglass filter epsilon in [0, 1): the velocity of every real particle on a
   /// traction surface is relaxed towards the linear-corrected average of its real
   /// neighbours, v <- (1 - eps) v + eps vbar (stabilisation/surface_filter.hpp).
@@ -127,6 +133,33 @@ struct SolverCounters {
   /// Checks of the displacement since the last search (SolverSettings::neighbor_skin):
   /// two per updated-Lagrangian step.
   std::int64_t skin_checks = 0;
+};
+
+/// The accumulated works of SolverSettings::energy_ledger (solver/energy_ledger.hpp),
+/// in J (per unit thickness in 2D, per unit area in 1D). Part of a checkpoint: a
+/// restarted run books on from them.
+struct EnergyLedger {
+  std::vector<double> boundary;  ///< per boundary condition (SolverState::boundaries' order): int t . v dA dt
+  double body_force = 0.0;       ///< int b . P dt
+  double damping = 0.0;          ///< -c int sum_I m_I |v_I|^2 dt
+  double hourglass = 0.0;        ///< the hourglass stiffness's work on the particles
+  double surface_filter = 0.0;   ///< the surface filter's work (it only takes energy out)
+  /// Not a work of the balance: the work of the characteristic boundary's overwrite of
+  /// the boundary particles' velocities (+: puts energy in), beside
+  /// the full step's value (energy_ledger.hpp).
+  double boundary_overwrite = 0.0;
+  /// Not a work: the energy the hourglass stiffness holds at the last step,
+  /// k/2 sum_I V_I |r_I|^2 (stabilisation/hourglass_stiffness.hpp; recomputed every step).
+  double hourglass_energy = 0.0;
+  /// E = kinetic + elastic + plastic work when the ledger started (NaN until then).
+  double initial_energy = std::numeric_limits<double>::quiet_NaN();
+
+  /// The works of the balance: E(t) - E(0) = external_work() + the scheme's own error.
+  double external_work() const {
+    double w = body_force + damping + hourglass + surface_filter;
+    for (double b : boundary) w += b;
+    return w;
+  }
 };
 
 }  // namespace tsph

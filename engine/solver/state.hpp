@@ -125,6 +125,7 @@ struct SolverState {
   std::vector<BoundaryCondition<Dim>> boundaries;
   double time = 0.0;
   SolverCounters counters;
+  EnergyLedger energy;  ///< SolverSettings::energy_ledger (energy_ledger.hpp)
   double initial_spacing = 0.0;  ///< (mean initial virtual volume)^(1/Dim)
   SolverLists lists;
   BoundaryParticles<Dim> boundary;

@@ -5,9 +5,13 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
 
 #ifndef TSPH_VERSION
@@ -47,7 +51,28 @@ CaseRun run_case_file(const Options& options, const std::string& file, const std
     run.diverged_time = run.steps.empty() ? (run.frame_times.empty() ? 0.0 : run.frame_times.back()) : run.steps.back().time;
   }
   run.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (std::ifstream in(dir / "energy.csv"); in) {
+    std::string line;
+    std::getline(in, line);
+    std::vector<std::string> names;
+    std::stringstream header(line);
+    for (std::string name; std::getline(header, name, ',');) names.push_back(name);
+    while (std::getline(in, line)) {
+      std::stringstream row(line);
+      std::size_t k = 0;
+      for (std::string cell; std::getline(row, cell, ',') && k < names.size(); ++k)
+        run.energy[names[k]].push_back(std::stod(cell));
+    }
+  }
   return run;
+}
+
+double largest_balance_error(const CaseRun& run, double scale) {
+  const auto it = run.energy.find("balance_error");
+  if (it == run.energy.end() || it->second.empty()) return std::numeric_limits<double>::quiet_NaN();
+  double largest = 0.0;
+  for (double e : it->second) largest = std::max(largest, std::abs(e));
+  return largest / scale;
 }
 
 const std::vector<double>& array_of(const output::VtuFrame& frame, const std::string& name) {

@@ -8,6 +8,7 @@
 #include "engine/output/vtu_writer.hpp"
 #include "tools/validate/validation_case.hpp"
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -25,7 +26,13 @@ struct CaseRun {
   std::vector<output::VtuFrame> frames;
   std::vector<RunOptions::StepRecord> steps;
   double wall_seconds = 0.0;
+  /// The columns of the run's energy.csv by name (the energy ledger; empty without it).
+  std::map<std::string, std::vector<double>> energy;
 };
+
+/// The largest |balance_error| of the run's energy ledger over its rows, divided by
+/// `scale` (J); NaN without a ledger.
+double largest_balance_error(const CaseRun& run, double scale);
 
 /// Loads `options.cases_dir / file` with the overrides and runs it into
 /// `options.out_dir / run_name` (replaced), quiet, with options.threads (0: the case's).
@@ -44,14 +51,6 @@ Check relative_check(std::string figure, double value, double reference, double 
 Check bound_check(std::string figure, double value, double bound);
 /// The run reached its end: FAIL with the diagnosis as a note when it diverged.
 Check no_divergence_check(const CaseRun& run, Result& result);
-
-/// The elastic (complementary) energy per unit volume of a stress in VTK order
-/// (xx yy zz xy yz xz), isotropic: ((1 + nu) s:s - nu (tr s)^2) / (2 E).
-inline double elastic_energy_density(const double* s, double young, double nu) {
-  const double trace = s[0] + s[1] + s[2];
-  const double squares = s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + 2.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]);
-  return ((1.0 + nu) * squares - nu * trace * trace) / (2.0 * young);
-}
 
 /// "[a, b, c]" for a --set override of a TOML array.
 std::string toml_array(const std::vector<double>& values);

@@ -129,6 +129,10 @@ class HourglassStiffness {
       }
       round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * residual;
     });
+    if (state.settings.energy_ledger)  // E = k/2 sum_I V_I |r_I|^2 (round_trip_residual_ holds V_I r_I)
+      state.energy.hourglass_energy = 0.5 * stiffness * deterministic_sum(real_count, [&](std::size_t i) {
+        return round_trip_residual_[i].squaredNorm() * state.real.density[i] / state.real.mass[i];
+      });
     // s_v = sum_I R_Iv V_I r_I (the transposed return trip; reuses virtual_value_).
     parallel_for(virtual_count, [&](std::size_t v) {
       Vec sum = Vec::Zero();
@@ -139,6 +143,8 @@ class HourglassStiffness {
       virtual_value_[v] = sum;
     });
     // F_J = -k (V_J r_J - sum_v A_vJ s_v).
+    const bool ledger = state.settings.energy_ledger;
+    if (ledger) kick_.assign(real_count, Vec::Zero());
     parallel_for(real_count, [&](std::size_t j) {
       if (const std::int32_t b = state.boundary.slot[j]; b >= 0) {
         const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
@@ -155,9 +161,18 @@ class HourglassStiffness {
         const Vec& n = state.boundary.normal[static_cast<std::size_t>(b)];
         force -= force.dot(n) * n;
       }
-      for (int d = 0; d < Dim; ++d) state.real.velocity[d][j] -= dt * stiffness * force[d] / state.real.mass[j];
+      Vec kick;
+      for (int d = 0; d < Dim; ++d) {
+        kick[d] = -(dt * stiffness * force[d] / state.real.mass[j]);
+        state.real.velocity[d][j] += kick[d];
+      }
+      if (ledger) kick_[j] = kick;
     });
   }
+
+  /// The velocity change of each real particle in the last step (with
+  /// SolverSettings::energy_ledger only; energy_ledger.hpp books its work).
+  const std::vector<Vec>& kicks() const { return kick_; }
 
  private:
 
@@ -185,6 +200,7 @@ class HourglassStiffness {
     hourglass_list_build_ = state.counters.neighbor_builds;
   }
 
+  std::vector<Vec> kick_;                      ///< the last step's velocity changes (ledger only)
   std::vector<LinearFitWeights> forward_fit_;  ///< A, per virtual particle
   std::vector<LinearFitWeights> return_fit_;   ///< R, per real particle
   std::vector<Vec> virtual_value_;             ///< a_v, then s_v

@@ -1,0 +1,181 @@
+// SolverSettings::energy_ledger: the energy balance of a run (docs/validation.md,
+// "Energy balance"). With E = kinetic + elastic + plastic work of the real particles,
+//     E(t) - E(0) = sum_conditions W_boundary + W_body + W_damping + W_hourglass
+//                   + W_filter + (the scheme's own error),
+// the works booked step by step (trapezoidal in time):
+//  * W_boundary, per boundary condition: int sum_b t_b . v_b A_b dt over the condition's
+//    surface particles b, the power of the traction it imposes (traction_power).
+//    A_b = 2 V_b / dx: on the node lattice of tsph (and of its validation cases) a face
+//    particle holds half a cell of volume and a cell face of area (edge and corner
+//    particles their shares). A free surface and a fixed smooth wall do no work.
+//  * W_body = int b . P dt, W_damping = -c int sum_I m_I |v_I|^2 dt (the full step damps
+//    the interpolated velocity: this is its value where that is the particle's);
+//  * W_hourglass, W_filter: the work of the hourglass stiffness's and of the surface
+//    filter's velocity changes (stabilisation/), booked as below.
+// Not a work of the balance: the characteristic boundary replaces the velocity the full
+// step gave each boundary particle; the work of that replacement is booked apart
+// (EnergyLedger::boundary_overwrite). Where the boundary particles obey the momentum
+// balance it is the traction's power again; where they do not (a prescribed velocity
+// against a one-sided stress gradient) the two differ, and the difference is part of
+// the scheme's error, with the Taylor expansion's own dissipation (alpha) and the
+// stress-side updates of the boundary stages.
+// The sums run in fixed blocks (deterministic_sum) and the boundary slots serially: the
+// ledger has the same bits on any thread count and after a restart.
+#pragma once
+
+#include "engine/parallel.hpp"
+#include "engine/solver/boundary/normals.hpp"
+#include "engine/solver/state.hpp"
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+namespace tsph {
+
+/// The bookkeeping of SolverState::energy inside TaylorSph::advance_fields. A stage's
+/// work over a step is its impulse on each particle times the particle's mean velocity
+/// (v^n + v^{n+1}) / 2, m dv . v_mean: the works of all the velocity changes of a step
+/// add up to its change of kinetic energy, and a force that a later stage of the same
+/// step undoes (the hourglass stiffness holding a static state against the full step's
+/// one-sided gradients) does no work. Memory while on: v^n (Dim doubles per real
+/// particle) and the hourglass stiffness's kicks; passes: a copy at the start and two
+/// sums at the end, and serial passes over the boundary slots.
+template <int Dim>
+class EnergyAccounting {
+ public:
+  using Vec = Vector<Dim>;
+
+  /// Kinetic energy sum_I m_I |v_I|^2 / 2.
+  static double kinetic(const SolverState<Dim>& state) {
+    const ParticleSet<Dim>& r = state.real;
+    return deterministic_sum(r.size(), [&](std::size_t i) {
+      double v2 = 0.0;
+      for (int d = 0; d < Dim; ++d) v2 += r.velocity[d][i] * r.velocity[d][i];
+      return 0.5 * r.mass[i] * v2;
+    });
+  }
+  /// Elastic energy sum_I V_I w(sigma_I).
+  static double elastic(const SolverState<Dim>& state) {
+    const ParticleSet<Dim>& r = state.real;
+    double e = 0.0;
+    state.material.visit([&](const auto& model) {
+      e = deterministic_sum(r.size(), [&](std::size_t i) {
+        return r.volume[i] * model.strain_energy_density(SolverState<Dim>::stress_of(r, i));
+      });
+    });
+    return e;
+  }
+  /// Plastic work sum_I V_I w_p,I (w_p per unit current volume; 0 in elastic runs).
+  static double plastic_work(const SolverState<Dim>& state) {
+    const ParticleSet<Dim>& r = state.real;
+    if (!r.carries_plastic_fields()) return 0.0;
+    return deterministic_sum(r.size(), [&](std::size_t i) { return r.volume[i] * r.plastic_work[i]; });
+  }
+  /// kinetic + elastic + plastic work.
+  static double mechanical(const SolverState<Dim>& state) {
+    return kinetic(state) + elastic(state) + plastic_work(state);
+  }
+
+  /// Before the full step: v^n and the tractions' power at n.
+  void begin(SolverState<Dim>& state) {
+    EnergyLedger& l = state.energy;
+    l.boundary.resize(state.boundaries.size(), 0.0);
+    if (std::isnan(l.initial_energy)) l.initial_energy = mechanical(state);
+    for (int d = 0; d < Dim; ++d) {
+      start_velocity_[d].resize(state.real.size());
+      const std::vector<double>& v = state.real.velocity[d];
+      std::vector<double>& copy = start_velocity_[d];
+      parallel_for(v.size(), [&](std::size_t i) { copy[i] = v[i]; });
+    }
+    traction_power(state, state.time, start_traction_power_);
+    overwrite_.clear();
+    filter_.clear();
+  }
+  /// Around the characteristic boundary stage (`overwrite`) or the surface filter: the
+  /// velocity changes of the boundary particles.
+  void before_boundary_stage(const SolverState<Dim>& state) { slot_velocities(state, slot_before_); }
+  void after_boundary_stage(const SolverState<Dim>& state, bool overwrite) {
+    slot_velocities(state, slot_after_);
+    std::vector<Vec>& change = overwrite ? overwrite_ : filter_;
+    change.resize(slot_after_.size());
+    for (std::size_t b = 0; b < slot_after_.size(); ++b) change[b] = slot_after_[b] - slot_before_[b];
+  }
+  /// End of the fields' update: every work of the step. `hourglass_kicks`: the hourglass
+  /// stiffness's velocity changes (empty: off).
+  void end(SolverState<Dim>& state, double dt, const std::vector<Vec>& hourglass_kicks) {
+    EnergyLedger& l = state.energy;
+    const ParticleSet<Dim>& r = state.real;
+    auto mean_velocity = [&](std::size_t i) {
+      Vec v;
+      for (int d = 0; d < Dim; ++d) v[d] = 0.5 * (start_velocity_[d][i] + r.velocity[d][i]);
+      return v;
+    };
+    const Vec& b = state.settings.body_force;
+    const double c = state.settings.damping;
+    if (b.squaredNorm() > 0.0)  // int b . P dt, P = sum m v at the step's middle
+      l.body_force += dt * deterministic_sum(r.size(), [&](std::size_t i) { return r.mass[i] * b.dot(mean_velocity(i)); });
+    if (c > 0.0)
+      l.damping -= c * dt * deterministic_sum(r.size(), [&](std::size_t i) {
+        return r.mass[i] * mean_velocity(i).squaredNorm();
+      });
+    if (!hourglass_kicks.empty())
+      l.hourglass += deterministic_sum(r.size(), [&](std::size_t i) {
+        return r.mass[i] * hourglass_kicks[i].dot(mean_velocity(i));
+      });
+    auto slot_work = [&](const std::vector<Vec>& change) {
+      double w = 0.0;
+      for (std::size_t s = 0; s < change.size(); ++s) {
+        const std::uint32_t i = state.boundary.particle[s];
+        w += r.mass[i] * change[s].dot(mean_velocity(i));
+      }
+      return w;
+    };
+    l.boundary_overwrite += slot_work(overwrite_);
+    l.surface_filter += slot_work(filter_);
+    traction_power(state, state.time + dt, end_traction_power_);
+    for (std::size_t k = 0; k < end_traction_power_.size(); ++k)
+      l.boundary[k] += 0.5 * dt * (start_traction_power_[k] + end_traction_power_[k]);
+  }
+
+  /// The power of each condition on its surface particles at time t, sum_b t_b . v_b A_b
+  /// with the traction t_b that the condition imposes: a traction condition's prescribed
+  /// one (zero on a free surface, whatever stress the particle holds: the scheme applies
+  /// no other), the particle's own sigma_b n_b where the velocity is prescribed, and its
+  /// normal part on a symmetry plane (whose tangential traction is zero).
+  static void traction_power(const SolverState<Dim>& state, double t, std::vector<double>& power) {
+    power.assign(state.boundaries.size(), 0.0);
+    const double dx = state.initial_spacing;
+    using Kind = typename BoundaryCondition<Dim>::Kind;
+    for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
+      if (!state.boundary.on_surface[b]) continue;
+      const std::uint32_t i = state.boundary.particle[b];
+      const auto k = static_cast<std::size_t>(state.real.boundary[i]);
+      const BoundaryCondition<Dim>& condition = state.boundaries[k];
+      const Vec& n = state.boundary.normal[b];
+      const Vec v = state.velocity_of(i);
+      Vec traction;
+      if (condition.kind == Kind::traction) {
+        traction = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t);
+      } else {
+        traction = in_plane<Dim>(SolverState<Dim>::stress_of(state.real, i)) * n;
+        if (condition.kind == Kind::symmetry) traction = traction.dot(n) * n;
+      }
+      power[k] += 2.0 * state.real.volume[i] / dx * traction.dot(v);
+    }
+  }
+
+ private:
+  static void slot_velocities(const SolverState<Dim>& state, std::vector<Vec>& out) {
+    const std::size_t n = state.boundary.particle.size();
+    out.resize(n);
+    for (std::size_t b = 0; b < n; ++b) out[b] = state.velocity_of(state.boundary.particle[b]);
+  }
+
+  std::array<std::vector<double>, Dim> start_velocity_;
+  std::vector<double> start_traction_power_, end_traction_power_;
+  std::vector<Vec> slot_before_, slot_after_, overwrite_, filter_;
+};
+
+}  // namespace tsph

@@ -1,0 +1,143 @@
+// The energy ledger (engine/solver/energy_ledger.hpp, energy.csv of `tsph run`): the
+// 1D bar balances to round-off with the traction's work exact, the ledger has the same
+// bits on one and two threads and after a restart, and bad keys are refused.
+#include "engine/case/case_file.hpp"
+#include "engine/case/case_run.hpp"
+#include "engine/parallel.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#ifndef TSPH_SOURCE_DIR
+#error "TSPH_SOURCE_DIR must be defined"
+#endif
+
+namespace tsph {
+namespace {
+
+namespace fs = std::filesystem;
+const fs::path kCases = fs::path(TSPH_SOURCE_DIR) / "tools" / "cases";
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("tsph_energy_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// energy.csv as columns by name.
+std::map<std::string, std::vector<double>> read_energy(const fs::path& p) {
+  std::ifstream in(p);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> names;
+  std::stringstream header(line);
+  for (std::string name; std::getline(header, name, ',');) names.push_back(name);
+  std::map<std::string, std::vector<double>> columns;
+  while (std::getline(in, line)) {
+    std::stringstream row(line);
+    std::size_t k = 0;
+    for (std::string cell; std::getline(row, cell, ','); ++k) columns[names.at(k)].push_back(std::stod(cell));
+    EXPECT_EQ(k, names.size()) << line;
+  }
+  return columns;
+}
+
+RunReport run_quietly(const CaseFile& c, const fs::path& out, const std::string& restart = "") {
+  RunOptions options;
+  options.out_dir = out.string();
+  options.quiet = true;
+  options.restart = restart;
+  return run_case(c, options);
+}
+
+// The seed's bar (alpha 0.6, CFL 1) is exact: the loaded end's traction rho c v0 at v0
+// works at rho c v0^2 = 4e5 W per unit area, 20 J a step, from the first step's middle
+// (the trapezoid of P = 0 at t = 0 and 4e5 after it) to the last step of the pulse
+// (the same, closing): rho c v0^2 t0 = 1000 J in all; the fixed end does none; and
+// kinetic + elastic energy equal the work at every row to round-off.
+TEST(EnergyLedger, BarBalancesToRoundOff) {
+  const fs::path dir = scratch("bar");
+  set_thread_count(1);
+  (void)run_quietly(load_case((kCases / "bar.toml").string(), {"output.energy_every=1"}), dir);
+  const auto e = read_energy(dir / "energy.csv");
+  ASSERT_EQ(e.at("t").size(), 151u);  // t = 0 and every one of the 150 steps
+  for (std::size_t k = 0; k < e.at("t").size(); ++k) {
+    const double t = e.at("t")[k];
+    const double work = t == 0.0 ? 0.0 : t <= 2.5e-3 + 1e-12 ? 4e5 * t - 10.0 : 1000.0;
+    EXPECT_NEAR(e.at("boundary_loaded_end")[k], work, 1e-9 * 1000.0) << "t = " << t;
+    EXPECT_EQ(e.at("boundary_left_end")[k], 0.0);
+    EXPECT_NEAR(e.at("kinetic")[k] + e.at("elastic")[k], work, 1e-9 * 1000.0) << "t = " << t;
+    EXPECT_LT(std::abs(e.at("balance_error")[k]), 1e-9 * 1000.0) << "t = " << t;
+  }
+  fs::remove_all(dir);
+}
+
+// The cantilever runs every stage the ledger books (traction, clamp by the wall gradient,
+// hourglass stiffness, surface filter): the same bytes of energy.csv on 1 and 2 threads,
+// and a run continued from its checkpoint writes the same file as the one not stopped.
+TEST(EnergyLedger, SameBitsOnAnyThreadCountAndAfterARestart) {
+  const std::vector<std::string> keys = {"time.end=0.0064", "output.energy_every=5", "output.checkpoint_every=100",
+                                         "output.every=0", "damping.rest_after=1"};
+  const CaseFile c = load_case((kCases / "cantilever_2d.toml").string(), keys);
+  const fs::path one = scratch("one"), two = scratch("two"), restarted = scratch("restarted");
+  set_thread_count(1);
+  const RunReport r1 = run_quietly(c, one);
+  ASSERT_GE(r1.steps, 120);  // checkpoints at 100 and at the end
+  set_thread_count(2);
+  (void)run_quietly(c, two);
+  const std::string text = read_text(one / "energy.csv");
+  EXPECT_EQ(text, read_text(two / "energy.csv"));
+  const auto e = read_energy(one / "energy.csv");
+  EXPECT_NE(e.at("hourglass").back(), 0.0);
+  EXPECT_LT(e.at("surface_filter").back(), 0.0);  // the filter only takes energy out
+  EXPECT_GT(e.at("boundary_tip_shear").back(), 0.0);
+  EXPECT_EQ(e.at("boundary_clamp").back(), 0.0);  // no velocity at the clamp: no work
+  // Restart from the checkpoint at step 100 beside the whole energy.csv of the first run
+  // and a row of an interrupted run: the rows after the checkpoint's time are dropped
+  // and written again.
+  set_thread_count(1);
+  fs::copy(one / "checkpoint_0000000100.bin", restarted / "checkpoint_0000000100.bin");
+  {
+    std::ofstream out(restarted / "energy.csv");
+    out << text << "9.9e9,999,1,1,1\n";
+  }
+  (void)run_quietly(c, restarted, (restarted / "checkpoint_0000000100.bin").string());
+  EXPECT_EQ(text, read_text(restarted / "energy.csv"));
+  for (const auto& d : {one, two, restarted}) fs::remove_all(d);
+}
+
+TEST(EnergyLedger, OffWithZeroAndBadValuesRefused) {
+  const fs::path dir = scratch("off");
+  set_thread_count(1);
+  (void)run_quietly(load_case((kCases / "bar.toml").string(), {"output.energy_every=0"}), dir);
+  EXPECT_FALSE(fs::exists(dir / "energy.csv"));
+  try {
+    (void)load_case((kCases / "bar.toml").string(), {"output.energy_every=-1"});
+    ADD_FAILURE() << "output.energy_every = -1 accepted";
+  } catch (const CaseError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("energy_every"), std::string::npos) << what;
+    EXPECT_NE(what.find(">= 0"), std::string::npos) << what;
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace tsph
