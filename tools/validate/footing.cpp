@@ -94,8 +94,8 @@ Result run_footing(const Options& o) {
   // engine/solver/energy_ledger.hpp), reported, not checked: the issue asks for 1 %,
   // and the scheme's own balance error is -45 % of the footing's work at dx = B / 4,
   // -18 % at B / 10, -9 % at B / 20 (2026-11-26, docs/validation.md "Energy balance"):
-  // first order in dx, the plastic work, sigma : d^p from the kernel-smoothed velocity
-  // gradient, falling short of the work the footing does on the slip lines.
+  // first order in dx, and larger with the soil elastic (-79 % at B / 4): not explained
+  // yet (the punch's edge singularity, the characteristic stress under the footing).
   if (!run.energy.empty()) {
     const auto last = [&](const char* name) { return run.energy.at(name).back(); };
     const double work = last("boundary_footing");
