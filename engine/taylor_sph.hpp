@@ -205,8 +205,8 @@ void TaylorSph<Dim>::advance_fields(double dt) {
     FullStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (4): virtual -> real
     if (ledger) energy_.before_boundary_stage(state_);
     CharacteristicBoundary<Dim>::apply(state_, model, dt, t_new);   // boundary state at n+1
-    if (ledger) energy_.after_boundary_stage(state_, /*overwrite=*/true);
     if (settings.conservative_momentum) momentum_.apply(state_, dt, t_new);
+    if (ledger) energy_.after_boundary_stage(state_, /*overwrite=*/true);  // the slots' change
     if (settings.hourglass_stiffness > 0.0) hourglass_stiffness_.apply(state_, kernel, dt);
     if (settings.hourglass_coefficient > 0.0) {
       if (ledger) energy_.before_boundary_stage(state_);

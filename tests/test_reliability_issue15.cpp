@@ -104,9 +104,9 @@ TEST(CheckpointIntegrity, EnergyLedgerRoundTripAndFormatThree) {
   EXPECT_EQ(read.energy.boundary, written.energy.boundary);
   EXPECT_EQ(read.energy.hourglass, -3.0);
   EXPECT_EQ(read.energy.initial_energy, 7.0);
-  // Format 3: magic "TSPHCKP3", the ledger's bytes (6 doubles, two counts, 2 doubles) gone.
+  // Format 3: magic "TSPHCKP3", the ledger's bytes (7 doubles, two counts, 2 doubles) gone.
   std::vector<char> bytes = read_all(dir / "k.bin");
-  bytes.resize(bytes.size() - (6 * 8 + 2 * 8 + 2 * 8));
+  bytes.resize(bytes.size() - (7 * 8 + 2 * 8 + 2 * 8));
   bytes[7] = '3';
   const std::uint64_t body = bytes.size() - 20;
   const std::uint32_t crc = output::detail::crc32_of(bytes.data() + 20, body);

@@ -185,6 +185,7 @@ int run(const SpectrumOptions& o, const CaseFile& c) {
   if (c.box_lower.empty())
     throw CaseError({c.path + ": tsph spectrum needs geometry.box (one box on a lattice): the modes are read on it"});
   BuiltCase<Dim> built = build_case<Dim>(c);
+  built.settings.energy_ledger = false;  // the step map's many steps write no energy.csv
   const auto* beam = dynamic_cast<const CantileverValidation<Dim>*>(built.exact.get());
   const double dt = built.dt;
   TaylorSph<Dim> solver = make_solver(c, built);

@@ -174,29 +174,46 @@ output::VtuFrame snapshot(const ParticleSet<Dim>& p, const CaseFile& c, const Bu
 /// checkpoint at `restart_time` and the file exists, that file with its header and its
 /// rows up to that time (the later rows are the interrupted run's; they come again).
 std::ofstream open_csv(const fs::path& path, const std::string& header, std::optional<double> restart_time) {
-  std::string kept = header;
+  std::string kept;
   if (restart_time && fs::exists(path)) {
     std::ifstream in(path);
     std::string line;
-    kept.clear();
     while (std::getline(in, line)) {
       const bool row = !line.empty() && (std::isdigit(static_cast<unsigned char>(line[0])) || line[0] == '-');
-      // The rows print 11 digits: a row at the checkpoint's own time may read above it.
-      if (row && std::stod(line) > *restart_time + 1e-9 * std::abs(*restart_time)) break;
+      if (row) {  // the rows print 11 digits: a row at the checkpoint's own time may read above it
+        double t = 0.0;
+        try {
+          t = std::stod(line);
+        } catch (const std::exception&) {
+          break;  // a row cut short (the interrupted run's last): written again
+        }
+        if (t > *restart_time + 1e-9 * std::abs(*restart_time)) break;
+      }
       kept += line + "\n";
     }
   }
+  if (kept.empty()) kept = header;  // a new file, or an empty one
   std::ofstream file(path, std::ios::trunc);
   file << kept;
   if (!file) throw_output_error(path.string(), "open", errno);
   return file;
 }
 
-/// A boundary condition's name as a CSV column: letters, digits and '_' (others become '_').
-std::string column_name(std::string name) {
-  for (char& ch : name)
-    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-  return name;
+/// The boundary conditions' columns of energy.csv: "boundary_" and the name in letters,
+/// digits and '_' (others become '_'), with "_2", "_3", ... where two names meet.
+template <int Dim>
+std::vector<std::string> boundary_columns(const std::vector<BoundaryCondition<Dim>>& conditions) {
+  std::vector<std::string> columns;
+  for (const auto& condition : conditions) {
+    std::string name = "boundary_" + condition.name;
+    for (char& ch : name)
+      if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+    std::string column = name;
+    for (int k = 2; std::find(columns.begin(), columns.end(), column) != columns.end(); ++k)
+      column = name + "_" + std::to_string(k);
+    columns.push_back(column);
+  }
+  return columns;
 }
 
 /// energy.csv (output.energy_every): the energies and the works of the ledger
@@ -208,9 +225,10 @@ class EnergyFile {
       : path_(out / "energy.csv") {
     if (c.energy_every <= 0) return;
     std::string header = "t,step,kinetic,elastic,plastic_work,body_force,damping";
-    for (const auto& condition : solver.state().boundaries) header += ",boundary_" + column_name(condition.name);
-    header += ",hourglass,surface_filter,energy_change,external_work,balance_error,boundary_overwrite,hourglass_energy\n";
+    for (const std::string& column : boundary_columns(solver.state().boundaries)) header += "," + column;
+    header += ",hourglass,surface_filter,energy_change,external_work,balance_error,overwrite_work,hourglass_energy\n";
     file_ = open_csv(path_, header, restart_time);
+    if (restart_time) last_time_ = *restart_time;  // its row is in the file
     open_ = true;
   }
   /// A row at the solver's time (once per time).
@@ -455,7 +473,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
     k.virtual_series = virtual_series;
     for (const auto& e : report.errors) k.errors.push_back({e.time, e.name, e.value});
     k.physics = physics;
-    k.energy = solver->state().energy;
+    if (c.energy_every > 0) k.energy = solver->state().energy;  // off: a later run with it starts afresh
     const fs::path path = out / fmt::format("checkpoint_{:010d}.bin", k.steps);
     output::write_checkpoint((path).string(), k);
     prune_checkpoints(out.string(), path.string());  // issue 15: also those from before a restart

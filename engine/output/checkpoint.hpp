@@ -217,7 +217,8 @@ void write_checkpoint(const std::string& path, const Checkpoint<Dim>& c) {
     b.put(e.value);
   }
   const EnergyLedger& l = c.energy;
-  for (double w : {l.body_force, l.damping, l.hourglass, l.surface_filter, l.boundary_overwrite, l.initial_energy})
+  for (double w : {l.body_force, l.damping, l.hourglass, l.surface_filter, l.boundary_overwrite, l.hourglass_energy,
+                   l.initial_energy})
     b.put(w);
   b.put<std::uint64_t>(l.boundary.size());  // the count get_vector checks against
   b.put_vector(l.boundary);
@@ -340,7 +341,7 @@ Checkpoint<Dim> parse_checkpoint(std::vector<char> data, const std::string& path
     if (h.format >= 4) {
       EnergyLedger& l = c.energy;
       for (double* w : {&l.body_force, &l.damping, &l.hourglass, &l.surface_filter, &l.boundary_overwrite,
-                        &l.initial_energy})
+                        &l.hourglass_energy, &l.initial_energy})
         *w = r.get<double>();
       const auto conditions = r.get<std::uint64_t>();
       if (conditions > size) throw std::runtime_error("checkpoint '" + path + "' is damaged (energy ledger size)");

@@ -4,7 +4,8 @@
 //                   + W_filter + (the scheme's own error),
 // the works booked step by step (trapezoidal in time):
 //  * W_boundary, per boundary condition: int sum_b t_b . v_b A_b dt over the condition's
-//    surface particles b, the power of the traction it imposes (traction_power).
+//    surface particles b, the power of the traction it imposes (traction_power), and for
+//    a velocity held inside the body (a driven region) the work of its overwrite.
 //    A_b = 2 V_b / dx: on the node lattice of tsph (and of its validation cases) a face
 //    particle holds half a cell of volume and a cell face of area (edge and corner
 //    particles their shares). A free surface and a fixed smooth wall do no work.
@@ -93,8 +94,9 @@ class EnergyAccounting {
     overwrite_.clear();
     filter_.clear();
   }
-  /// Around the characteristic boundary stage (`overwrite`) or the surface filter: the
-  /// velocity changes of the boundary particles.
+  /// Around the characteristic boundary stage (`overwrite`; with the conservative momentum
+  /// update, around both) or the surface filter: the velocity changes of the boundary
+  /// particles.
   void before_boundary_stage(const SolverState<Dim>& state) { slot_velocities(state, slot_before_); }
   void after_boundary_stage(const SolverState<Dim>& state, bool overwrite) {
     slot_velocities(state, slot_after_);
@@ -124,16 +126,18 @@ class EnergyAccounting {
       l.hourglass += deterministic_sum(r.size(), [&](std::size_t i) {
         return r.mass[i] * hourglass_kicks[i].dot(mean_velocity(i));
       });
-    auto slot_work = [&](const std::vector<Vec>& change) {
-      double w = 0.0;
-      for (std::size_t s = 0; s < change.size(); ++s) {
-        const std::uint32_t i = state.boundary.particle[s];
-        w += r.mass[i] * change[s].dot(mean_velocity(i));
-      }
-      return w;
-    };
-    l.boundary_overwrite += slot_work(overwrite_);
-    l.surface_filter += slot_work(filter_);
+    // The overwrite of a velocity held inside the body (no surface, no traction) is the
+    // constraint's work: its condition's; on a surface it is booked apart.
+    for (std::size_t s = 0; s < overwrite_.size(); ++s) {
+      const std::uint32_t i = state.boundary.particle[s];
+      const double w = r.mass[i] * overwrite_[s].dot(mean_velocity(i));
+      if (state.boundary.on_surface[s]) l.boundary_overwrite += w;
+      else l.boundary[static_cast<std::size_t>(state.real.boundary[i])] += w;
+    }
+    for (std::size_t s = 0; s < filter_.size(); ++s) {
+      const std::uint32_t i = state.boundary.particle[s];
+      l.surface_filter += r.mass[i] * filter_[s].dot(mean_velocity(i));
+    }
     traction_power(state, state.time + dt, end_traction_power_);
     for (std::size_t k = 0; k < end_traction_power_.size(); ++k)
       l.boundary[k] += 0.5 * dt * (start_traction_power_[k] + end_traction_power_[k]);

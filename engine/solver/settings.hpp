@@ -145,11 +145,12 @@ struct EnergyLedger {
   double hourglass = 0.0;        ///< the hourglass stiffness's work on the particles
   double surface_filter = 0.0;   ///< the surface filter's work (it only takes energy out)
   /// Not a work of the balance: the work of the characteristic boundary's overwrite of
-  /// the boundary particles' velocities (+: puts energy in), beside
-  /// the full step's value (energy_ledger.hpp).
+  /// the surface particles' velocities (+: puts energy in), beside the full step's value
+  /// (energy_ledger.hpp; energy.csv's `overwrite_work`).
   double boundary_overwrite = 0.0;
   /// Not a work: the energy the hourglass stiffness holds at the last step,
-  /// k/2 sum_I V_I |r_I|^2 (stabilisation/hourglass_stiffness.hpp; recomputed every step).
+  /// k/2 sum_I V_I |r_I|^2 (stabilisation/hourglass_stiffness.hpp; recomputed every step,
+  /// checkpointed for a restart's first row).
   double hourglass_energy = 0.0;
   /// E = kinetic + elastic + plastic work when the ledger started (NaN until then).
   double initial_energy = std::numeric_limits<double>::quiet_NaN();

@@ -144,11 +144,14 @@ class HourglassStiffness {
     });
     // F_J = -k (V_J r_J - sum_v A_vJ s_v).
     const bool ledger = state.settings.energy_ledger;
-    if (ledger) kick_.assign(real_count, Vec::Zero());
+    if (ledger) kick_.resize(real_count);
     parallel_for(real_count, [&](std::size_t j) {
       if (const std::int32_t b = state.boundary.slot[j]; b >= 0) {
         const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
-        if (condition.kind == BoundaryCondition<Dim>::Kind::velocity) return;
+        if (condition.kind == BoundaryCondition<Dim>::Kind::velocity) {
+          if (ledger) kick_[j].setZero();
+          return;
+        }
       }
       const auto rj = static_cast<std::uint32_t>(j);
       Vec force = round_trip_residual_[j];
