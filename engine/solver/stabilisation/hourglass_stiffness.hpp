@@ -174,7 +174,7 @@ class HourglassStiffness {
   }
 
   /// The velocity change of each real particle in the last step (with
-  /// SolverSettings::energy_ledger only; energy_ledger.hpp books its work).
+  /// SolverSettings::energy_ledger only, else empty; energy_ledger.hpp books its work).
   const std::vector<Vec>& kicks() const { return kick_; }
 
  private:
