@@ -3,11 +3,20 @@
 // Bytes counted as STREAM does: 24 per element (read b and c, write a; the
 // write-allocate read of a is not counted). 1 and 2 threads (more: bench/thread_axis.hpp),
 // through parallel_for.
+//
+// BM_CoreClock: the core's clock while it runs, from a chain of dependent integer adds
+// (one cycle each on every x86 core since the Pentium 4; 8 adds an iteration, so the
+// loop's own increment and branch run beside the chain). Its counter `Gcycles` (per
+// second, so the clock in GHz) turns a time per particle-step into cycles, and with
+// callgrind's instruction count into instructions per cycle, where a VM gives no
+// hardware counters (perf stat: <not supported>). On a loaded machine read the CPU
+// column: 8 x 2^26 cycles over the CPU time.
 #include "bench/thread_axis.hpp"
 #include "engine/parallel.hpp"
 
 #include <benchmark/benchmark.h>
 
+#include <cstdint>
 #include <vector>
 
 namespace {
@@ -35,6 +44,28 @@ BENCHMARK(BM_Triad)
     ->ArgsProduct({{1 << 24}, tsph::bench::thread_axis()})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
+
+#if defined(__x86_64__)
+void BM_CoreClock(benchmark::State& state) {
+  constexpr std::int64_t iterations = 1 << 26;
+  std::uint64_t x = 0;
+  for (auto _ : state) {
+    for (std::int64_t i = 0; i < iterations; ++i) {
+      // 8 dependent adds: 8 cycles an iteration whatever the issue width.
+      asm volatile(
+          "add $1, %0\n\tadd $1, %0\n\tadd $1, %0\n\tadd $1, %0\n\t"
+          "add $1, %0\n\tadd $1, %0\n\tadd $1, %0\n\tadd $1, %0"
+          : "+r"(x));
+    }
+    benchmark::DoNotOptimize(x);
+  }
+  // Cycles per second: 8 per iteration (the counter is divided by the real time).
+  state.counters["Gcycles"] = benchmark::Counter(static_cast<double>(state.iterations()) * 8.0 *
+                                                 static_cast<double>(iterations) * 1e-9,
+                                             benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_CoreClock)->UseRealTime()->Unit(benchmark::kMillisecond);
+#endif
 
 }  // namespace
 

@@ -60,7 +60,7 @@ Result run_footing(const Options& o) {
     for (std::size_t i = 0; i < frame.point_count; ++i) {
       const double x = x0[3 * i], y = x0[3 * i + 1];
       if (std::abs(y - depth) < 1e-9 * dx) {
-        const double side = std::abs(x - lower[0]) < 1e-9 * dx || std::abs(x - upper[0]) < 1e-9 * dx;
+        const bool side = std::abs(x - lower[0]) < 1e-9 * dx || std::abs(x - upper[0]) < 1e-9 * dx;
         force -= s[6 * i + 1] * (side ? 0.5 * dx : dx);
       }
       if (std::abs(y) > 1e-9 * dx || std::abs(x) > half_width + 1e-9 * dx) continue;
