@@ -94,10 +94,14 @@ struct StencilWeights {
 /// Infinity norm (largest absolute row sum) of a small matrix, inline: Eigen's
 /// cwiseAbs().rowwise().sum().maxCoeff() is an out-of-line call whose inlining the
 /// compiler decides per translation unit (2.4 % of the 2D step's instructions when it
-/// stopped inlining it, bench/RESULTS.md). NaN when any entry is not finite.
+/// stopped inlining it, bench/RESULTS.md). NaN when any entry is not finite (Eigen's
+/// maxCoeff skips a NaN row sum after the first row: an indefinite matrix could pass).
 template <int N>
 [[gnu::always_inline]] inline double infinity_norm(const Eigen::Matrix<double, N, N>& m) {
-  double largest = 0.0, total = 0.0;  // total: finite exactly when every entry is
+  // total: not finite when an entry is not, or when the row sums overflow (where the
+  // callers' determinant test rejects the matrix anyway). The rows are summed left to
+  // right (Eigen pairs them): the norm may differ from Eigen's in the last bit.
+  double largest = 0.0, total = 0.0;
   for (int r = 0; r < N; ++r) {
     double row = 0.0;
     for (int c = 0; c < N; ++c) row += std::abs(m(r, c));
