@@ -7,7 +7,8 @@ run_steps; setup excluded), and fails (exit 1) when any count exceeds its baseli
 more than the threshold. Instruction counts do not depend on the load of a shared
 machine (repeat runs agree to a few parts per million, bench/RESULTS.md), so a 10 %
 threshold catches a real 30 % slowdown and is never tripped by noise. A count well
-below its baseline is reported (update the baseline with --update), not failed.
+below its baseline is reported (update the baseline with --update), not failed; so is
+one more than 1 % above it (a drift to look into before it adds up).
 
   tools/check_timing.py                 # compare with bench/baseline.json
   tools/check_timing.py --update        # rewrite the baseline from this tree
@@ -23,6 +24,7 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BASELINE = os.path.join(ROOT, "bench", "baseline.json")
+DRIFT = 0.01  # a ratio above 1 + DRIFT (and within the threshold) is reported
 
 
 def count_instructions(binary, args):
@@ -76,6 +78,10 @@ def main():
             verdict, failed = "REGRESSION", True
         elif ratio < 1.0 - threshold:
             verdict = "faster: update the baseline (--update)"
+        elif ratio > 1.0 + DRIFT:
+            # Below the threshold but not noise (counts repeat to parts per million): a
+            # compiler's inlining change once cost 1.8 % unseen (bench/RESULTS.md).
+            verdict = "ok, but +%.1f %% drift: find its cause before it adds up" % (100 * (ratio - 1.0))
         print("%-10s %14d instructions, baseline %14d, ratio %.4f  %s"
               % (w["name"], count, w["instructions"], ratio, verdict))
     if o.update:
