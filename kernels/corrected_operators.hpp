@@ -75,8 +75,8 @@ struct StencilWeights {
     return g;
   }
   /// Sizes the buffers to at least padded_size(n); they only grow (no zero-fill of a
-  /// row that is shorter than the last one).
-  /// Called once a stencil row: the check inline, the growth (rare) out of line.
+  /// row that is shorter than the last one). Called once a stencil row: the check
+  /// inline, the growth (rare) out of line.
   [[gnu::always_inline]] void resize(std::size_t n) {
     count_ = n;
     const std::size_t padded = padded_size(n);
@@ -148,7 +148,7 @@ template <int N>
     }
     if (!(diagonal_product > 0.0) || !(det > kMinHadamardRatio * diagonal_product))
       return inverse.setZero();
-    const double inverse_det = 1.0 / det;
+    const double inverse_det = 1.0 / det;  // a loop: Eigen's `*=` was an out-of-line call
     for (int r = 0; r < N; ++r)
       for (int c = 0; c < N; ++c) inverse(r, c) *= inverse_det;
   } else {

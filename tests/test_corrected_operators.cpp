@@ -700,6 +700,29 @@ TEST(CheckedInverse, InvertsWellConditionedAndRejectsSingular) {
   EXPECT_FALSE(ok);
 }
 
+// infinity_norm: Eigen's largest absolute row sum to the last bit or so, and NaN when
+// any entry is not finite, also in a row after the first (where Eigen's maxCoeff may
+// skip a NaN row sum).
+TEST(InfinityNorm, MatchesEigenAndFlagsEntriesThatAreNotFinite) {
+  Eigen::Matrix4d m;
+  m << 1.5, -2.0, 0.25, 3.0,  //
+      -7.0, 0.5, 1.0, -0.125,  //
+      0.0, 4.0, -4.0, 0.5,  //
+      2.0, 2.0, -2.0, 2.0;
+  EXPECT_NEAR(infinity_norm<4>(m), m.cwiseAbs().rowwise().sum().maxCoeff(), 1e-15);
+  EXPECT_DOUBLE_EQ(infinity_norm<4>(m), 8.625);
+  EXPECT_EQ(infinity_norm<3>(Eigen::Matrix3d::Zero().eval()), 0.0);
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                           -std::numeric_limits<double>::infinity()}) {
+    Eigen::Matrix3d later_row = Eigen::Matrix3d::Identity();
+    later_row(2, 1) = bad;
+    EXPECT_TRUE(std::isnan(infinity_norm<3>(later_row))) << bad;
+    bool ok = true;
+    EXPECT_EQ(checked_inverse<3>(later_row, ok), Eigen::Matrix3d::Zero()) << bad;
+    EXPECT_FALSE(ok) << bad;
+  }
+}
+
 // Regression: the correction matrix of a 3D stencil whose neighbours lie on one line
 // (cubic spline, h = 0.2, the line of CollinearStencilUsesPseudoInverse) is rank one up
 // to round-off (eigenvalues 0, 0, 0.986). Its determinant (6.6e-19) and the cofactors of
