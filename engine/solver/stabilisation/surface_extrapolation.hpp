@@ -13,6 +13,7 @@
 
 #include <Eigen/LU>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -22,6 +23,9 @@ template <int Dim>
 struct SurfaceExtrapolation {
   using Vec = Vector<Dim>;
   using Mat = Matrix<Dim>;
+  /// 3D: the least ratio of the tangential stencil's principal moments (its extent
+  /// squared across over along) for the Hessian to be fitted; a full face has about 1.
+  static constexpr double kMinMomentRatio = 0.1;
 
   /// SolverSettings::surface_extrapolation: velocity_dt(l, k) = d v'_l / d t_k, l, k
   /// tangential, moved from the virtual stencil's centroid to the particle,
@@ -68,7 +72,15 @@ struct SurfaceExtrapolation {
       }
     } else if constexpr (Dim == 3) {
       const Eigen::Matrix2d a = moments.template block<2, 2>(1, 1);
-      if (std::abs(a.determinant()) <= 1e-12 * a.squaredNorm()) return;  // an edge: skip
+      // The tangential neighbours must span both directions: on an edge (and next to
+      // one, where the normals tilt) the particles of the same normal lie on a line, and
+      // once the body has moved, that line's moment matrix is rank one up to round-off
+      // (det 1e-12..1e-8 of trace^2 in the twisting column); its inverse then blows the
+      // extrapolation up (the column diverged in one step). Skip unless the smaller
+      // principal moment is at least kMinMomentRatio of the larger (none: no neighbour).
+      const double half_trace = 0.5 * a.trace();
+      const double spread = std::sqrt(std::max(0.0, half_trace * half_trace - a.determinant()));
+      if (!(half_trace > 0.0 && half_trace - spread >= kMinMomentRatio * (half_trace + spread))) return;
       const Eigen::Matrix2d hessian = differences.template block<2, 2>(1, 1) * a.inverse();
       const Eigen::Matrix2d symmetric = 0.5 * (hessian + hessian.transpose());
       velocity_dt.template block<2, 2>(1, 1) -= delta * symmetric;
