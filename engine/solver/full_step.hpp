@@ -72,6 +72,7 @@ struct FullStep {
               state.boundary.half_velocity_gradient[static_cast<std::size_t>(b)].setZero();
               state.boundary.half_velocity[static_cast<std::size_t>(b)].setZero();
               state.boundary.gradient_sum[static_cast<std::size_t>(b)].setZero();
+              state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = 0;
               for (auto& g : state.boundary.half_stress_gradient[static_cast<std::size_t>(b)]) g.setZero();
             }
             return;
@@ -80,6 +81,7 @@ struct FullStep {
           if (const std::int32_t b = state.boundary.slot[r]; b >= 0) {
             // Tangential derivatives at n+1/2 for the boundary conditions.
             state.boundary.half_velocity_gradient[static_cast<std::size_t>(b)] = s.velocity_gradient;
+            state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = status.gradient_fallback ? 0 : 1;
             state.boundary.half_velocity[static_cast<std::size_t>(b)] = s.velocity;
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
             Vec centroid = Vec::Zero();  // of the virtual stencil (surface_extrapolation)

@@ -46,6 +46,10 @@ struct BoundaryParticles {
   std::vector<Vec> half_velocity;   ///< v^{n+1/2} interpolated at the particle
   std::vector<Vec> stencil_offset;  ///< x_I - centroid of its virtual stencil
   std::vector<Vec> gradient_sum;    ///< sum_J V_J Gn_IJ over its virtual stencil
+  /// 1 where the half-step gradient's correction matrix was inverted, 0 where its stencil
+  /// is rank-deficient (a corner at alpha 0.6: one virtual neighbour, the missing
+  /// direction read as zero) or empty: then half_velocity_gradient is not a gradient
+  std::vector<char> full_rank_gradient;
   /// Per real particle (not per slot): its slot, or -1.
   std::vector<std::int32_t> slot;
 
@@ -55,7 +59,7 @@ struct BoundaryParticles {
   void for_each_field(F&& f) {
     f(particle), f(profile), f(on_surface), f(normal), f(stress), f(velocity), f(density);
     f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
-    f(half_velocity), f(stencil_offset), f(gradient_sum);
+    f(half_velocity), f(stencil_offset), f(gradient_sum), f(full_rank_gradient);
   }
 
   /// Sizes every per-step field to the slots of `particle` and zeroes it (Eigen's
@@ -77,6 +81,7 @@ struct BoundaryParticles {
     half_velocity.assign(n, Vec::Zero());
     stencil_offset.assign(n, Vec::Zero());
     gradient_sum.assign(n, Vec::Zero());
+    full_rank_gradient.assign(n, 0);
   }
 
   /// Renumbers after the real set was permuted: new_index[old real index] is the new

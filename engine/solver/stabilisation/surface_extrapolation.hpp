@@ -45,6 +45,11 @@ struct SurfaceExtrapolation {
              c.prescribed(state.initial_position_of(particle), state.boundary.profile[slot], t_new).squaredNorm() == 0.0;
     };
     if (!unloaded(b, i)) return;
+    // A rank-deficient half-step gradient (a corner at alpha 0.6, where the missing
+    // direction reads as zero) is no sample of d_t v_n: neither extrapolated nor used as
+    // a neighbour (the plate's free-end corners made its Hessian, and so the end face's
+    // strain rate, wrong by O(grad v / dx): the plate 6 x too stiff at alpha 0.6).
+    if (!state.boundary.full_rank_gradient[b]) return;
     auto g_of = [&](std::size_t slot) {  // grad_t v_n at n+1/2, in the frame
       return Vec(frame.transpose() * (state.boundary.half_velocity_gradient[slot].transpose() * n));
     };
@@ -57,7 +62,8 @@ struct SurfaceExtrapolation {
       if (bj < 0 || !state.boundary.on_surface[static_cast<std::size_t>(bj)] ||
           state.boundary.normal[static_cast<std::size_t>(bj)].dot(n) < 0.999)
         continue;
-      if (!unloaded(static_cast<std::size_t>(bj), j)) continue;
+      if (!unloaded(static_cast<std::size_t>(bj), j) || !state.boundary.full_rank_gradient[static_cast<std::size_t>(bj)])
+        continue;
       const Vec gj = g_of(static_cast<std::size_t>(bj));
       const Vec dx = frame.transpose() * (state.real.position_of(j) - state.real.position_of(i));
       for (int k = 1; k < Dim; ++k)
