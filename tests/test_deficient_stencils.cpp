@@ -7,10 +7,12 @@
 //    stencil and so sees the velocity gradient; with keep it sees none.
 #include "engine/case/case_build.hpp"
 #include "engine/case/case_file.hpp"
+#include "engine/solver/full_step.hpp"
 #include "kernels/corrected_operators.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -41,6 +43,39 @@ TEST(DeficientStencils, CoplanarNeighboursHaveNoLinearInterpolation) {
   // stencil passes the moment matrix's bounds while its linear weights grow as
   // 1 / lift: the open problem of docs/notes/2026-11-25-deficient-stencils.md.)
   EXPECT_FALSE(face_stencil(0.3, w).interpolation_fallback);
+}
+
+// The full step's guard in updated Lagrangian (engine/solver/full_step.hpp): a nearly
+// coplanar face row's linear weights grow as 1 / lift, far beyond
+// kMaxInterpolationWeightSquares, while a regular lift (0.3 dx) and Shepard stay below.
+TEST(DeficientStencils, NearlyCoplanarRowsExceedTheInterpolationBound) {
+  StencilWeights<3> w;
+  const StencilStatus nearly = face_stencil(1e-4, w);
+  EXPECT_FALSE(nearly.interpolation_fallback);  // checked_inverse's bounds pass it
+  EXPECT_GT(interpolation_weight_squares(w, 4), 1e3 * kMaxInterpolationWeightSquares);
+  EXPECT_FALSE(face_stencil(0.3, w).interpolation_fallback);
+  EXPECT_LT(interpolation_weight_squares(w, 4), kMaxInterpolationWeightSquares);
+  EXPECT_TRUE(face_stencil(0.0, w).interpolation_fallback);  // Shepard: weights sum to 1
+  EXPECT_LE(interpolation_weight_squares(w, 4), 1.0);
+}
+
+// The shipped rotating cube (tools/cases/rotation_3d.toml) at 6^3, alpha 0.6: the face
+// rows' four virtual neighbours leave their plane in the first step, and without the
+// guard the cube blew up in 3 steps (2.9 km/s at a face particle next to an edge). With
+// it the face rows keep Shepard's weights and 40 steps (a quarter turn) stay below twice
+// the corner speed omega R = 1.41 m/s.
+TEST(DeficientStencils, RotatingCubeAtAlpha06KeepsShepardOnItsFaces) {
+  const CaseFile c = load_case(std::string(TSPH_SOURCE_DIR) + "/tools/cases/rotation_3d.toml",
+                               {"geometry.spacing=0.2", "output.every=0"});
+  BuiltCase<3> b = build_case<3>(c);
+  TaylorSph<3> solver = make_solver(c, b);
+  for (int step = 0; step < 40; ++step) solver.step(b.dt);
+  const auto& r = solver.real();
+  double fastest = 0.0;
+  for (std::size_t i = 0; i < r.size(); ++i)
+    fastest = std::max(fastest, std::hypot(r.velocity[0][i], r.velocity[1][i], r.velocity[2][i]));
+  EXPECT_LT(fastest, 2.0 * 2.0 * std::sqrt(0.5));
+  EXPECT_GT(solver.counters().interpolation_fallbacks, 0);
 }
 
 // The shipped free block of tools/cases/rotation_2d.toml at 11 x 11, alpha 0.6,

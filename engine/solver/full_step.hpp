@@ -18,6 +18,21 @@
 
 namespace tsph {
 
+/// Updated Lagrangian: the largest squared 2-norm of a row's linear interpolation
+/// weights, sum_J Wn_IJ^2, that the full step keeps (FullStep::apply; larger: Shepard).
+/// Shepard's weights have at most 1. Measured 2026-11-26 over every row and step of the
+/// rotating blocks (2D, 3D), the homogeneous block and the plate at alpha 1.2 and the
+/// large-deflection beam at alpha 0.6: at most 6.4 (a cube's corner at alpha 1.2); the
+/// nearly coplanar face rows of a moving cube at alpha 0.6: 1e3 to 5e8.
+inline constexpr double kMaxInterpolationWeightSquares = 16.0;
+
+template <int Dim>
+double interpolation_weight_squares(const StencilWeights<Dim>& w, std::size_t n) {
+  double sum = 0.0;
+  for (std::size_t k = 0; k < n; ++k) sum += w.value[k] * w.value[k];
+  return sum;
+}
+
 template <int Dim>
 struct FullStep {
   using Vec = Vector<Dim>;
@@ -44,6 +59,8 @@ struct FullStep {
     if (material_motion)
       for (auto& component : state.next_position) component.assign(target.count, std::numeric_limits<double>::quiet_NaN());
     const bool reference = state.reference_kernel();  // SolverSettings::kernel_configuration
+    const bool guard_interpolation =
+        state.positions_move() && state.settings.interpolation == InterpolationKind::linear;
     state.add(parallel_for_with_scratch<StepScratch, StencilCounts>(
         target.count, [&](std::size_t r, StepScratch& scratch, StencilCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
@@ -54,6 +71,19 @@ struct FullStep {
           StencilStatus status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
                                                       source.volume, nb, state.settings.interpolation, w,
                                                       simd_path(), reference ? &row_reference : nullptr);
+          // Updated Lagrangian: a row whose linear interpolation was singular in the lattice
+          // (a 3D face at alpha 0.6: four coplanar virtual neighbours; Shepard there) becomes
+          // regular once the body moves, with a tiny eigenvalue, and its weights grow as
+          // 1 / (distance from the plane): checked_inverse's bounds pass them. The full step
+          // starts from the interpolated stress, so such a row keeps Shepard's weights when
+          // its linear weights' squared 2-norm exceeds kMaxInterpolationWeightSquares.
+          if (guard_interpolation && !status.interpolation_fallback && !status.no_neighbors &&
+              interpolation_weight_squares(w, nb.size()) > kMaxInterpolationWeightSquares) {
+            status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points, source.volume, nb,
+                                          InterpolationKind::shepard, w, simd_path(),
+                                          reference ? &row_reference : nullptr);
+            status.interpolation_fallback = true;
+          }
           double h_row = h;  // the row's smoothing length: h, or that of a widened stencil
           // Interpolation alone deficient (an edge at alpha 0.6: two virtual neighbours
           // at one depth): the update keeps the row, the motion takes the widened one.
