@@ -56,6 +56,7 @@ struct StencilStatus {
   bool no_neighbors = false;             ///< kernel sum is zero: nothing to interpolate
   bool interpolation_fallback = false;   ///< `linear` fell back to Shepard
   bool gradient_fallback = false;        ///< correction matrix inverted by pseudo-inverse
+  double weight_squares = 0.0;           ///< sum_J Wn_IJ^2 of the interpolation weights
 };
 
 /// Per-neighbour weights of one query point, sized to its row; reused between queries
@@ -360,7 +361,8 @@ template <int Dim, class Kernel, bool Reference = false>
       status.gradient_fallback = n > 0;
     }
   }
-  // One pass over the row for both (they were two).
+  // One pass over the row for both (they were two), and the weights' squared 2-norm.
+  Pack squares{};
   for (std::size_t k = 0; k < padded; k += kLanes) {
     Pack w = load_pack(value + k);
     if (scale == Scale::linear) {
@@ -371,6 +373,7 @@ template <int Dim, class Kernel, bool Reference = false>
       w = scale == Scale::shepard ? w * a : Pack{};
     }
     store_pack(value + k, w);
+    squares += w * w;
     std::array<Pack, Dim> raw;
     for (int d = 0; d < Dim; ++d) raw[d] = load_pack(gradient[d] + k);
     for (int r = 0; r < Dim; ++r) {
@@ -379,6 +382,7 @@ template <int Dim, class Kernel, bool Reference = false>
       store_pack(gradient[r] + k, g);
     }
   }
+  status.weight_squares = lane_sum(squares);
   return status;
 }
 

@@ -52,11 +52,16 @@ TEST(DeficientStencils, NearlyCoplanarRowsExceedTheInterpolationBound) {
   StencilWeights<3> w;
   const StencilStatus nearly = face_stencil(1e-4, w);
   EXPECT_FALSE(nearly.interpolation_fallback);  // checked_inverse's bounds pass it
-  EXPECT_GT(interpolation_weight_squares(w, 4), 1e3 * kMaxInterpolationWeightSquares);
-  EXPECT_FALSE(face_stencil(0.3, w).interpolation_fallback);
-  EXPECT_LT(interpolation_weight_squares(w, 4), kMaxInterpolationWeightSquares);
-  EXPECT_TRUE(face_stencil(0.0, w).interpolation_fallback);  // Shepard: weights sum to 1
-  EXPECT_LE(interpolation_weight_squares(w, 4), 1.0);
+  EXPECT_GT(nearly.weight_squares, 1e3 * kMaxInterpolationWeightSquares);
+  double squares = 0.0;  // the status's figure is the weights' own
+  for (std::size_t k = 0; k < 4; ++k) squares += w.value[k] * w.value[k];
+  EXPECT_NEAR(nearly.weight_squares, squares, 1e-12 * squares);
+  const StencilStatus lifted = face_stencil(0.3, w);
+  EXPECT_FALSE(lifted.interpolation_fallback);
+  EXPECT_LT(lifted.weight_squares, kMaxInterpolationWeightSquares);
+  const StencilStatus flat = face_stencil(0.0, w);
+  EXPECT_TRUE(flat.interpolation_fallback);  // Shepard: positive weights summing to 1
+  EXPECT_LE(flat.weight_squares, 1.0);
 }
 
 // The shipped rotating cube (tools/cases/rotation_3d.toml) at 6^3, alpha 0.6: the face

@@ -19,19 +19,12 @@
 namespace tsph {
 
 /// Updated Lagrangian: the largest squared 2-norm of a row's linear interpolation
-/// weights, sum_J Wn_IJ^2, that the full step keeps (FullStep::apply; larger: Shepard).
+/// weights, sum_J Wn_IJ^2 (StencilStatus::weight_squares), that the full step keeps (FullStep::apply; larger: Shepard).
 /// Shepard's weights have at most 1. Measured 2026-11-26 over every row and step of the
 /// rotating blocks (2D, 3D), the homogeneous block and the plate at alpha 1.2 and the
 /// large-deflection beam at alpha 0.6: at most 6.4 (a cube's corner at alpha 1.2); the
 /// nearly coplanar face rows of a moving cube at alpha 0.6: 1e3 to 5e8.
 inline constexpr double kMaxInterpolationWeightSquares = 16.0;
-
-template <int Dim>
-double interpolation_weight_squares(const StencilWeights<Dim>& w, std::size_t n) {
-  double sum = 0.0;
-  for (std::size_t k = 0; k < n; ++k) sum += w.value[k] * w.value[k];
-  return sum;
-}
 
 template <int Dim>
 struct FullStep {
@@ -78,7 +71,7 @@ struct FullStep {
           // starts from the interpolated stress, so such a row keeps Shepard's weights when
           // its linear weights' squared 2-norm exceeds kMaxInterpolationWeightSquares.
           if (guard_interpolation && !status.interpolation_fallback && !status.no_neighbors &&
-              interpolation_weight_squares(w, nb.size()) > kMaxInterpolationWeightSquares) {
+              status.weight_squares > kMaxInterpolationWeightSquares) {
             status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points, source.volume, nb,
                                           InterpolationKind::shepard, w, simd_path(),
                                           reference ? &row_reference : nullptr);
