@@ -70,20 +70,25 @@ struct FullStep {
           // 1 / (distance from the plane): checked_inverse's bounds pass them. The full step
           // starts from the interpolated stress, so such a row keeps Shepard's weights when
           // its linear weights' squared 2-norm exceeds kMaxInterpolationWeightSquares.
+          // (NaN weights too.) A guarded row is not widened (deficient_stencils): widening
+          // recomputes the row with linear weights where it finds no regular stencil.
+          bool guarded = false;
           if (guard_interpolation && !status.interpolation_fallback && !status.no_neighbors &&
-              status.weight_squares > kMaxInterpolationWeightSquares) {
+              !(status.weight_squares <= kMaxInterpolationWeightSquares)) {
             status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points, source.volume, nb,
                                           InterpolationKind::shepard, w, simd_path(),
                                           reference ? &row_reference : nullptr);
             status.interpolation_fallback = true;
+            guarded = true;
           }
           double h_row = h;  // the row's smoothing length: h, or that of a widened stencil
           // Interpolation alone deficient (an edge at alpha 0.6: two virtual neighbours
           // at one depth): the update keeps the row, the motion takes the widened one.
           const bool widen_motion = deficient == Deficient::widen_motion && status.interpolation_fallback &&
-                                    !status.gradient_fallback && material_motion;
-          const bool widen_row = deficient == Deficient::widen ? status.gradient_fallback || status.interpolation_fallback
-                                                               : deficient == Deficient::widen_motion && status.gradient_fallback;
+                                    !status.gradient_fallback && material_motion && !guarded;
+          const bool widen_row =
+              !guarded && (deficient == Deficient::widen ? status.gradient_fallback || status.interpolation_fallback
+                                                         : deficient == Deficient::widen_motion && status.gradient_fallback);
           if (widen_row &&
               widen(state, kernel, r, target.position_of(r), source_points, source.volume, scratch, h_row, status)) {
             nb = scratch.wide_row;
