@@ -19,8 +19,8 @@
 namespace tsph {
 
 /// Updated Lagrangian: the largest squared 2-norm of a row's linear interpolation
-/// weights, sum_J Wn_IJ^2 (StencilStatus::weight_squares), that the full step keeps (FullStep::apply; larger: Shepard).
-/// Shepard's weights have at most 1. Measured 2026-11-26 over every row and step of the
+/// weights, sum_J Wn_IJ^2 (StencilStatus::weight_squares), that the full step keeps
+/// (FullStep::apply; a larger row takes Shepard's). Shepard's weights have at most 1. Measured 2026-11-26 over every row and step of the
 /// rotating blocks (2D, 3D), the homogeneous block and the plate at alpha 1.2 and the
 /// large-deflection beam at alpha 0.6: at most 6.4 (a cube's corner at alpha 1.2); the
 /// nearly coplanar face rows of a moving cube at alpha 0.6: 1e3 to 5e8.
@@ -69,12 +69,12 @@ struct FullStep {
           // regular once the body moves, with a tiny eigenvalue, and its weights grow as
           // 1 / (distance from the plane): checked_inverse's bounds pass them. The full step
           // starts from the interpolated stress, so such a row keeps Shepard's weights when
-          // its linear weights' squared 2-norm exceeds kMaxInterpolationWeightSquares.
-          // (NaN weights too.) A guarded row is not widened (deficient_stencils): widening
-          // recomputes the row with linear weights where it finds no regular stencil.
+          // its linear weights' squared 2-norm exceeds kMaxInterpolationWeightSquares (or is
+          // NaN; an empty or Shepard row is below). A guarded row is not widened
+          // (deficient_stencils): widening recomputes a row with linear weights where it
+          // finds no regular wider stencil.
           bool guarded = false;
-          if (guard_interpolation && !status.interpolation_fallback && !status.no_neighbors &&
-              !(status.weight_squares <= kMaxInterpolationWeightSquares)) {
+          if (guard_interpolation && !(status.weight_squares <= kMaxInterpolationWeightSquares)) {
             status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points, source.volume, nb,
                                           InterpolationKind::shepard, w, simd_path(),
                                           reference ? &row_reference : nullptr);
