@@ -14,7 +14,9 @@
 
 #include <array>
 #include <functional>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace tsph {
 
@@ -32,6 +34,12 @@ struct BoundaryCondition {
   std::string name;
   /// Optional velocity field v(x0, t) (velocity conditions only): replaces time x profile.
   std::function<Vector<Dim>(const Vector<Dim>&, double)> field;
+  /// Symmetry conditions only: the ids (ParticleSet::id) of the particles in this
+  /// plane's region that carry another condition (a later one of the case: an edge
+  /// where two planes meet, a free surface or a wall crossing the plane). They keep to
+  /// this plane as well (solver/boundary/symmetry_planes.hpp): a quarter model's axis
+  /// lies on two planes, its corner on three.
+  std::vector<std::uint32_t> also_on_plane;
 
   /// The prescribed vector at a particle of initial position x0, with profile(x0) given.
   Vector<Dim> prescribed(const Vector<Dim>& x0, const Vector<Dim>& profile_at_x0, double t) const {
@@ -44,7 +52,7 @@ struct BoundaryCondition {
   /// Prescribed velocity vector v(t) = (f_0(t), ..., f_Dim-1(t)) [x profile(x0)].
   static BoundaryCondition velocity(std::array<TimeFunction, Dim> components, std::string name,
                                     Profile profile = uniform()) {
-    return {Kind::velocity, std::move(components), std::move(profile), std::move(name), {}};
+    return {Kind::velocity, std::move(components), std::move(profile), std::move(name), {}, {}};
   }
   /// Prescribed velocity field v(x0, t) of the initial position and time.
   static BoundaryCondition velocity_field(std::function<Vector<Dim>(const Vector<Dim>&, double)> field,
@@ -60,13 +68,13 @@ struct BoundaryCondition {
   /// Prescribed traction vector t(t) = sigma . n [x profile(x0)].
   static BoundaryCondition traction(std::array<TimeFunction, Dim> components, std::string name,
                                     Profile profile = uniform()) {
-    return {Kind::traction, std::move(components), std::move(profile), std::move(name), {}};
+    return {Kind::traction, std::move(components), std::move(profile), std::move(name), {}, {}};
   }
   /// A symmetry plane (see Kind::symmetry), or a smooth rigid wall moving with the
   /// velocity `components` (only its normal part is imposed).
   static BoundaryCondition symmetry(std::string name, std::array<TimeFunction, Dim> components =
                                                           filled(TimeFunction::constant(0.0))) {
-    return {Kind::symmetry, std::move(components), uniform(), std::move(name), {}};
+    return {Kind::symmetry, std::move(components), uniform(), std::move(name), {}, {}};
   }
   /// Zero traction.
   static BoundaryCondition free(std::string name) {

@@ -137,12 +137,14 @@ int run_validate(const ValidateOptions& o) {
                o.cases_dir);
     return kExitBadInput;
   }
-  // The selection: every case whose name is, or begins with, a NAME; all when none given.
+  // The selection: the case named NAME, or else every case whose name begins with NAME
+  // ("taylor_bar" is that case, "rotation_2d" both alphas); all when none given.
   std::vector<const Case*> selected;
   for (const auto& name : o.names) {
     bool found = false;
+    const bool exact = std::any_of(all.begin(), all.end(), [&](const Case& c) { return c.name == name; });
     for (const auto& c : all)
-      if (c.name.rfind(name, 0) == 0) {
+      if (exact ? c.name == name : c.name.rfind(name, 0) == 0) {
         found = true;
         if (std::find(selected.begin(), selected.end(), &c) == selected.end()) selected.push_back(&c);
       }
@@ -277,7 +279,7 @@ Subcommand add_validate(CLI::App& app, int argc, char** argv) {
   for (int k = 0; k < argc; ++k) o->command += (k ? " " : "") + std::string(argv[k]);
   CLI::App* sub = app.add_subcommand("validate", "the large-deformation validation suite: cases against exact and "
                                                  "reference solutions, a table, CSV series and plots");
-  sub->add_option("NAME", o->names, "cases to run: a name, or the beginning of names (default: all; --list)");
+  sub->add_option("NAME", o->names, "cases to run: a name (that case alone), or else the beginning of names (default: all; --list)");
   sub->add_flag("--quick", o->quick, "the fast versions (coarser, shorter; the default ctest suite)");
   sub->add_option("--out", o->out, "output directory (default: out/validate)");
   sub->add_option("--cases", o->cases_dir, "directory of the case files (default: the source tree's tools/cases)");

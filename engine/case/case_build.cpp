@@ -228,9 +228,12 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
         set->stress[s][i] += c.initial_stress[static_cast<std::size_t>(s)];
     }
 
-  // Boundary conditions, assigned in order (later ones win where regions overlap).
+  // Boundary conditions, assigned in order (later ones win where regions overlap); a
+  // symmetry plane also keeps the particles of its region that a later condition took
+  // (BoundaryCondition::also_on_plane).
   const double tolerance = 1e-6 * dx;
   std::vector<std::string> errors;
+  std::vector<std::vector<Region<Dim>>> regions_of(c.boundaries.size());
   for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
     const BoundarySpec& s = c.boundaries[k];
     std::array<TimeFunction, Dim> components = BoundaryCondition<Dim>::filled(TimeFunction::constant(0.0));
@@ -276,6 +279,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
         region = Region<Dim>::of_group(s.name, static_cast<std::int32_t>(spec.group));
       else  // all: a half-space that holds every particle
         region = Region<Dim>::half_space(s.name, Vec::Constant(-1e300), Vec::Unit(0));
+      regions_of[k].push_back(region);
       try {
         assign_boundary(b.real, region, static_cast<std::int32_t>(k), tolerance);
       } catch (const std::invalid_argument& e) {
@@ -285,6 +289,19 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
     if (!missed.empty()) errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + s.name + "': " + missed);
   }
   if (!errors.empty()) throw CaseError(errors);
+  for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
+    if (b.conditions[k].kind != BoundaryCondition<Dim>::Kind::symmetry) continue;
+    for (std::size_t i = 0; i < b.real.size(); ++i) {
+      if (b.real.boundary[i] == static_cast<std::int32_t>(k)) continue;
+      Vec x0;
+      for (int d = 0; d < Dim; ++d) x0[d] = b.real.initial_position[d][i];
+      for (const Region<Dim>& region : regions_of[k])
+        if (region.contains(x0, b.real.group[i], tolerance)) {
+          b.conditions[k].also_on_plane.push_back(b.real.id[i]);
+          break;
+        }
+    }
+  }
   for (std::size_t k = 0; k < c.boundaries.size(); ++k)
     b.boundary_counts.emplace_back(
         c.boundaries[k].name,

@@ -166,7 +166,15 @@ class EnergyAccounting {
         traction = in_plane<Dim>(SolverState<Dim>::stress_of(state.real, i)) * n;
         if (condition.kind == Kind::symmetry) traction = traction.dot(n) * n;
       }
-      power[k] += 2.0 * state.real.volume[i] / dx * traction.dot(v);
+      const double area = 2.0 * state.real.volume[i] / dx;
+      power[k] += area * traction.dot(v);
+      // Further symmetry planes: their normal traction on the normal velocity (zero on a
+      // fixed plane), with the same area model.
+      for (std::size_t e = 0; e < 2 && state.boundary.extra_plane[b][e] >= 0; ++e) {
+        const Vec& m = state.boundary.extra_normal[b][e];
+        const double normal_traction = m.dot(in_plane<Dim>(SolverState<Dim>::stress_of(state.real, i)) * m);
+        power[static_cast<std::size_t>(state.boundary.extra_plane[b][e])] += area * normal_traction * m.dot(v);
+      }
     }
   }
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include "engine/parallel.hpp"
+#include "engine/solver/boundary/symmetry_planes.hpp"
 #include "engine/solver/neighbor_lists.hpp"
 #include "engine/solver/state.hpp"
 
@@ -103,6 +104,19 @@ struct Motion {
               on_plane = kind == BoundaryCondition<Dim>::Kind::symmetry;
             }
             double moved = 0.0;
+            const std::int32_t slot = state.boundary.slot[i];
+            if (slot >= 0 && !trapezoid && SymmetryPlanes<Dim>::any(state, static_cast<std::size_t>(slot))) {
+              // Further planes: across each, the move is the plane's (the velocity at
+              // n+1 was projected onto them: symmetry_planes.hpp).
+              const auto b = static_cast<std::size_t>(slot);
+              Vec step;
+              for (int d = 0; d < Dim; ++d) step[d] = state.next_position[d][i] - state.real.position[d][i];
+              for (std::size_t e = 0; e < 2 && state.boundary.extra_plane[b][e] >= 0; ++e) {
+                const Vec& m = state.boundary.extra_normal[b][e];
+                step -= (step.dot(m) - 0.5 * dt * m.dot(state.velocity_of(i))) * m;
+              }
+              for (int d = 0; d < Dim; ++d) state.next_position[d][i] = state.real.position[d][i] + step[d];
+            }
             if (on_plane) {  // along the plane as the material, across it as the (moving) wall
               const Vec& n = state.boundary.normal[static_cast<std::size_t>(state.boundary.slot[i])];
               Vec step;

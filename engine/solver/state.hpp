@@ -50,6 +50,12 @@ struct BoundaryParticles {
   /// is rank-deficient (a corner at alpha 0.6: one virtual neighbour, the missing
   /// direction read as zero) or empty: then half_velocity_gradient is not a gradient
   std::vector<char> full_rank_gradient;
+  /// The further symmetry planes the particle keeps to besides its own condition
+  /// (BoundaryCondition::also_on_plane; solver/boundary/symmetry_planes.hpp): their
+  /// condition indices, -1 for none (at most Dim - 1), and their unit normals at x^n
+  /// (boundary/normals.hpp).
+  std::vector<std::array<std::int32_t, 2>> extra_plane;
+  std::vector<std::array<Vec, 2>> extra_normal;
   /// Per real particle (not per slot): its slot, or -1.
   std::vector<std::int32_t> slot;
 
@@ -59,7 +65,12 @@ struct BoundaryParticles {
   void for_each_field(F&& f) {
     f(particle), f(profile), f(on_surface), f(normal), f(stress), f(velocity), f(density);
     f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
-    f(half_velocity), f(stencil_offset), f(gradient_sum), f(full_rank_gradient);
+    f(half_velocity), f(stencil_offset), f(gradient_sum), f(full_rank_gradient), f(extra_plane), f(extra_normal);
+  }
+
+  /// Whether slot b keeps to the plane of symmetry condition k as a further plane.
+  bool keeps_extra_plane(std::size_t b, std::int32_t k) const {
+    return extra_plane[b][0] == k || extra_plane[b][1] == k;
   }
 
   /// Sizes every per-step field to the slots of `particle` and zeroes it (Eigen's
@@ -82,6 +93,7 @@ struct BoundaryParticles {
     stencil_offset.assign(n, Vec::Zero());
     gradient_sum.assign(n, Vec::Zero());
     full_rank_gradient.assign(n, 0);
+    extra_normal.assign(n, {Vec::Zero(), Vec::Zero()});
   }
 
   /// Renumbers after the real set was permuted: new_index[old real index] is the new
@@ -183,6 +195,7 @@ struct SolverState {
       boundary.particle.push_back(static_cast<std::uint32_t>(i));
       boundary.profile.push_back(boundaries[static_cast<std::size_t>(b)].profile(initial_position_of(i)));
     }
+    assign_extra_planes();
     boundary.zero_step_fields();
     // dx of the CFL in a diagnosis (stability_monitor.hpp) and of the adaptive step
     // (time_step.hpp): from the initial volumes m / rho0, so that a restart of a deformed
@@ -191,6 +204,44 @@ struct SolverState {
     const double reference_density = material.elastic().reference_density();
     for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.mass[q] / reference_density;
     initial_spacing = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
+  }
+
+  /// Fills BoundaryParticles::extra_plane from the symmetry conditions' also_on_plane ids.
+  void assign_extra_planes() {
+    boundary.extra_plane.assign(boundary.size(), {-1, -1});
+    std::vector<std::int64_t> index_of_id;
+    for (std::size_t k = 0; k < boundaries.size(); ++k) {
+      const auto& condition = boundaries[k];
+      if (condition.also_on_plane.empty()) continue;
+      if (condition.kind != BoundaryCondition<Dim>::Kind::symmetry)
+        throw std::invalid_argument("solver: boundary condition '" + condition.name +
+                                    "' lists particles on its plane but is not a symmetry plane");
+      if (index_of_id.empty()) {
+        std::uint32_t largest = 0;
+        for (std::uint32_t id : real.id) largest = std::max(largest, id);
+        index_of_id.assign(static_cast<std::size_t>(largest) + 1, -1);
+        for (std::size_t i = 0; i < real.size(); ++i) index_of_id[real.id[i]] = static_cast<std::int64_t>(i);
+      }
+      for (std::uint32_t id : condition.also_on_plane) {
+        const std::int64_t i = id < index_of_id.size() ? index_of_id[id] : -1;
+        const std::int32_t b = i >= 0 ? boundary.slot[static_cast<std::size_t>(i)] : -1;
+        if (b < 0)
+          throw std::invalid_argument("solver: symmetry plane '" + condition.name + "' lists particle id " +
+                                      std::to_string(id) + ", which has no boundary condition");
+        auto& planes = boundary.extra_plane[static_cast<std::size_t>(b)];
+        const auto k32 = static_cast<std::int32_t>(k);
+        if (real.boundary[static_cast<std::size_t>(i)] == k32 || planes[0] == k32 || planes[1] == k32) continue;
+        const int held = (planes[0] >= 0) + (planes[1] >= 0);
+        if (held >= Dim - 1)
+          throw std::invalid_argument(
+              "boundary condition '" + condition.name + "': real particle " + std::to_string(id) +
+              " would keep to " + std::to_string(held + 1) + " symmetry planes besides its own condition '" +
+              boundaries[static_cast<std::size_t>(real.boundary[static_cast<std::size_t>(i)])].name +
+              "'; in " + std::to_string(Dim) + "D a particle keeps to at most " + std::to_string(Dim - 1) +
+              " further planes: make the regions meet at most at a corner (one plane per direction)");
+        planes[static_cast<std::size_t>(held)] = k32;
+      }
+    }
   }
 
   double support_radius() const { return kSupportFactor * settings.smoothing_length; }

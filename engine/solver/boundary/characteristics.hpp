@@ -27,6 +27,7 @@
 
 #include "engine/solver/boundary/free_edge.hpp"
 #include "engine/solver/boundary/normals.hpp"
+#include "engine/solver/boundary/symmetry_planes.hpp"
 #include "engine/solver/boundary/wall_gradient.hpp"
 #include "engine/solver/stabilisation/surface_extrapolation.hpp"
 #include "engine/solver/state.hpp"
@@ -208,7 +209,9 @@ struct CharacteristicBoundary {
       Mat stress_global = frame * stress1 * frame.transpose();
       if (state.settings.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0)
         FreeEdge<Dim>::make_uniaxial(state, b, i, n, frame, velocity_dt, dt, stress_global);
-      const Vec velocity_global = frame * velocity1;
+      Vec velocity_global = frame * velocity1;
+      // Further symmetry planes (an axis, a free edge or a wall crossing a plane).
+      if (SymmetryPlanes<Dim>::any(state, b)) SymmetryPlanes<Dim>::project(state, b, t_new, velocity_global, stress_global);
       for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = velocity_global[d];
       StressVector<Dim> updated;
       for (int r = 0; r < Dim; ++r)

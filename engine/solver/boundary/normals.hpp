@@ -95,29 +95,55 @@ struct BoundaryNormals {
                 (condition.kind == BoundaryCondition<Dim>::Kind::traction ? "traction" : "symmetry plane") +
                 " applies only to surface particles: shrink the region to the surface");
         }
-        state.boundary.normal[b] = face_normal(state, i, kernel_normal);
+        // Further symmetry planes (symmetry_planes.hpp): each one's normal from the
+        // particles that keep to it, then the own normal made orthogonal to them (the
+        // kernel normal of a particle on a plane leans across it: its mirror neighbours
+        // are missing).
+        for (std::size_t e = 0; e < 2; ++e) {
+          const std::int32_t k = state.boundary.extra_plane[b][e];
+          if (k < 0) continue;
+          Vec m = face_normal(state, i, kernel_normal, k);
+          for (std::size_t f = 0; f < e; ++f)
+            m = (m - m.dot(state.boundary.extra_normal[b][f]) * state.boundary.extra_normal[b][f]).normalized();
+          state.boundary.extra_normal[b][e] = m;
+        }
+        Vec normal = face_normal(state, i, kernel_normal, state.real.boundary[i]);
+        for (std::size_t e = 0; e < 2 && state.boundary.extra_plane[b][e] >= 0; ++e) {
+          const Vec& m = state.boundary.extra_normal[b][e];
+          const Vec off_plane = normal - normal.dot(m) * m;
+          if (off_plane.norm() > 1e-3) normal = off_plane.normalized();
+        }
+        state.boundary.normal[b] = normal;
       }
     });
     state.lists.surface_decided = true;
   }
 
-  /// The normal of the face a boundary particle's condition applies to: the direction
-  /// of least spread of the particle and its neighbours under the same condition
-  /// (principal components), oriented like `kernel_normal`. Where those particles do
-  /// not lie on a (Dim-1)-plane (an edge between two faces of one condition, a lone
-  /// particle) the kernel normal -sum V grad W is kept. Unlike the kernel normal, this
-  /// gives the face normal at corners and next to them, where half volumes and the
-  /// missing neighbours tilt the kernel sum.
-  static Vec face_normal(const SolverState<Dim>& state, std::uint32_t i, const Vec& kernel_normal) {
+  /// The normal of the face of condition `condition` at particle i: the direction of
+  /// least spread of the particle and its neighbours on that face (principal
+  /// components), oriented like `kernel_normal`. Where those particles do not lie on a
+  /// (Dim-1)-plane (an edge between two faces of one condition, a lone particle) the
+  /// kernel normal -sum V grad W is kept. Unlike the kernel normal, this gives the face
+  /// normal at corners and next to them, where half volumes and the missing neighbours
+  /// tilt the kernel sum. A particle is on the face when it carries the condition, or,
+  /// for a symmetry plane, keeps to it as a further plane (symmetry_planes.hpp).
+  static Vec face_normal(const SolverState<Dim>& state, std::uint32_t i, const Vec& kernel_normal,
+                         std::int32_t condition) {
     if constexpr (Dim == 1) {
-      (void)state, (void)i;
+      (void)state, (void)i, (void)condition;
       return kernel_normal;
     } else {
-      const std::int32_t condition = state.real.boundary[i];
+      const bool plane = state.boundaries[static_cast<std::size_t>(condition)].kind ==
+                         BoundaryCondition<Dim>::Kind::symmetry;
+      const auto on_face = [&](std::uint32_t j) {
+        if (state.real.boundary[j] == condition) return true;
+        const std::int32_t b = state.boundary.slot[j];
+        return plane && b >= 0 && state.boundary.keeps_extra_plane(static_cast<std::size_t>(b), condition);
+      };
       const PointsView<Dim> real_points = points_of<Dim>(state.real);
       std::vector<Vec> points{state.real.position_of(i)};
       for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
-        if (state.real.boundary[j] == condition && state.within_support(real_points, i, real_points, j))
+        if (on_face(j) && state.within_support(real_points, i, real_points, j))
           points.push_back(state.real.position_of(j));
       if (points.size() < static_cast<std::size_t>(Dim)) return kernel_normal;
       Vec mean = Vec::Zero();

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "engine/parallel.hpp"
+#include "engine/solver/boundary/symmetry_planes.hpp"
 #include "engine/solver/state.hpp"
 #include "neighbor/cell_list.hpp"
 
@@ -164,6 +165,8 @@ class HourglassStiffness {
         const Vec& n = state.boundary.normal[static_cast<std::size_t>(b)];
         force -= force.dot(n) * n;
       }
+      if (const std::int32_t b = state.boundary.slot[j]; b >= 0 && SymmetryPlanes<Dim>::any(state, static_cast<std::size_t>(b)))
+        SymmetryPlanes<Dim>::along_planes(state, static_cast<std::size_t>(b), force);
       Vec kick;
       for (int d = 0; d < Dim; ++d) {
         kick[d] = -(dt * stiffness * force[d] / state.real.mass[j]);

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "engine/parallel.hpp"
+#include "engine/solver/boundary/symmetry_planes.hpp"
 #include "engine/solver/state.hpp"
 #include "engine/solver/stencil_evaluation.hpp"
 
@@ -45,6 +46,11 @@ class SurfaceHourglassFilter {
           for (std::size_t k = 0; k < nb.size(); ++k)
             for (int d = 0; d < Dim; ++d) average[d] += w.value[k] * set.velocity[d][nb[k]];
           filtered_velocity_[b] = (1.0 - epsilon) * state.velocity_of(i) + epsilon * average;
+          if (SymmetryPlanes<Dim>::any(state, b)) {  // further planes keep v . m
+            Vec change = filtered_velocity_[b] - state.velocity_of(i);
+            SymmetryPlanes<Dim>::along_planes(state, b, change);
+            filtered_velocity_[b] = state.velocity_of(i) + change;
+          }
         }));
     for (std::size_t b = 0; b < count; ++b)
       for (int d = 0; d < Dim; ++d) state.real.velocity[d][state.boundary.particle[b]] = filtered_velocity_[b][d];
