@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -137,9 +138,9 @@ TEST(SymmetryPlane, StripBetweenTwoPlanesIsTheBarInUniaxialStrain) {
 // uniaxial strain again, exact at alpha 0.6 and CFL 1. The rod's four edges lie on two
 // planes each and its end faces' corners on two planes and an end condition: each keeps to
 // every plane of its regions (BoundaryCondition::also_on_plane, symmetry_planes.hpp).
-// With one condition per particle only, the edges take the later plane's condition,
-// leave the other plane and the rod is a 3D problem (before the further planes: v_z at
-// the edges 2.3e-2 m/s, 24 of 2 525 particles off d'Alembert).
+// With one condition per particle only (each edge the later plane's), the small-strain
+// rod still passes (no gradient across the planes here), but in updated Lagrangian the
+// edges left the earlier plane by 1.4e-8 m.
 const char* kRod = R"(
 dimension = 3
 [geometry]
@@ -219,6 +220,98 @@ TEST(SymmetryPlane, RodBetweenFourPlanesIsTheBarInUniaxialStrain) {
       if (start[3 * i + d] < 1e-9 || start[3 * i + d] > side - 1e-9)
         off_plane = std::max(off_plane, std::abs(moving.points[3 * i + d] - start[3 * i + d]));
   EXPECT_LT(off_plane, 1e-15);
+}
+
+// A square rod with free lateral faces, fixed at x = 0 and pressed at x = L (updated
+// Lagrangian, alpha 1.2): the quarter y, z >= 0 between two symmetry planes against the
+// whole rod, particle by particle. The planes take the characteristic boundary treatment
+// where the whole rod has interior particles, so the two agree to the discretisation
+// (the worst velocity 9.5 % of the largest at 3 ms, next to the planes); with each edge
+// particle on one plane only (the axis, the lines where the free faces cross the
+// planes) the worst is 29 %.
+std::string rod_text(bool quarter) {
+  const std::string lower = quarter ? "0.0" : "-0.05";
+  std::string text = R"(
+dimension = 3
+[geometry]
+spacing = 0.01
+box = { lower = [0.0, LOWER, LOWER], upper = [0.5, 0.05, 0.05] }
+[material]
+E = 8e7
+nu = 0.3
+rho = 2000.0
+[method]
+alpha = 1.2
+kinematics = "updated_lagrangian"
+[time]
+end = 3e-3
+cfl = 0.5
+)";
+  text.replace(text.find("LOWER"), 5, lower);
+  text.replace(text.find("LOWER"), 5, lower);
+  if (quarter)
+    text += R"([[boundary]]
+name = "y plane"
+type = "symmetry"
+region = { type = "half_space", point = [0.0, 0.0, 0.0], normal = [0.0, -1.0, 0.0] }
+[[boundary]]
+name = "z plane"
+type = "symmetry"
+region = { type = "half_space", point = [0.0, 0.0, 0.0], normal = [0.0, 0.0, -1.0] }
+[[boundary]]
+name = "sides"
+type = "free"
+region = [{ type = "half_space", point = [0.0, 0.05, 0.0], normal = [0.0, 1.0, 0.0] },
+          { type = "half_space", point = [0.0, 0.0, 0.05], normal = [0.0, 0.0, 1.0] }]
+)";
+  else
+    text += R"([[boundary]]
+name = "sides"
+type = "free"
+region = [{ type = "half_space", point = [0.0, -0.05, 0.0], normal = [0.0, -1.0, 0.0] },
+          { type = "half_space", point = [0.0, 0.05, 0.0], normal = [0.0, 1.0, 0.0] },
+          { type = "half_space", point = [0.0, 0.0, -0.05], normal = [0.0, 0.0, -1.0] },
+          { type = "half_space", point = [0.0, 0.0, 0.05], normal = [0.0, 0.0, 1.0] }]
+)";
+  return text + R"([[boundary]]
+name = "left end"
+type = "fixed"
+region = { type = "half_space", point = [0.0, 0.0, 0.0], normal = [-1.0, 0.0, 0.0] }
+[[boundary]]
+name = "loaded end"
+type = "traction"
+region = { type = "half_space", point = [0.5, 0.0, 0.0], normal = [1.0, 0.0, 0.0] }
+value = [-1e5, 0.0, 0.0]
+[output]
+times = [3e-3]
+fields = ["velocity", "stress", "displacement"]
+)";
+}
+
+TEST(SymmetryPlane, QuarterRodFollowsTheWholeRod) {
+  const LastFrame whole = run_text(rod_text(false), "rod_whole");
+  const LastFrame quarter = run_text(rod_text(true), "rod_quarter");
+  ASSERT_EQ(whole.count, 51u * 11u * 11u);
+  ASSERT_EQ(quarter.count, 51u * 6u * 6u);
+  const double dx = 0.01;
+  const auto key = [dx](const double* x) {
+    return std::array<long, 3>{std::lround(x[0] / dx), std::lround(x[1] / dx), std::lround(x[2] / dx)};
+  };
+  std::map<std::array<long, 3>, std::size_t> whole_index;
+  const auto& whole_x0 = whole.arrays.at("initial_position");
+  for (std::size_t i = 0; i < whole.count; ++i) whole_index[key(&whole_x0[3 * i])] = i;
+  const auto& v = whole.arrays.at("velocity");
+  double largest_speed = 0.0;
+  for (double c : v) largest_speed = std::max(largest_speed, std::abs(c));
+  const auto& quarter_x0 = quarter.arrays.at("initial_position");
+  const auto& quarter_v = quarter.arrays.at("velocity");
+  double worst = 0.0;
+  for (std::size_t i = 0; i < quarter.count; ++i) {
+    const std::size_t j = whole_index.at(key(&quarter_x0[3 * i]));
+    for (int d = 0; d < 3; ++d) worst = std::max(worst, std::abs(quarter_v[3 * i + d] - v[3 * j + d]));
+  }
+  EXPECT_GT(largest_speed, 0.1);
+  EXPECT_LT(worst / largest_speed, 0.15);
 }
 
 // A particle on more planes than directions is refused, naming the plane and the fix.
