@@ -337,8 +337,9 @@ region = { type = "half_space", point = [0.0, 0.0], normal = [-1.0, 0.0] }
   }
 }
 
-// The keys: a plastic model needs plane strain in 2D, another model's key is unknown,
-// "plastic" output needs a plastic model, the symmetry type is accepted.
+// The keys: Drucker-Prager needs plane strain in 2D (J2 in plane stress without kinematic
+// hardening), another model's key is unknown, "plastic" output needs a plastic model, the
+// symmetry type is accepted.
 TEST(PlasticCaseKeys, RefusedWhereTheyDoNotApply) {
   const auto error = [](const std::vector<std::string>& overrides) {
     try {
@@ -348,7 +349,12 @@ TEST(PlasticCaseKeys, RefusedWhereTheyDoNotApply) {
     }
     return std::string("accepted");
   };
-  EXPECT_NE(error({"material.model=\"j2\"", "material.yield_stress=1e4", "material.plane=\"stress\""})
+  EXPECT_EQ(error({"material.model=\"j2\"", "material.yield_stress=1e4", "material.plane=\"stress\""}), "accepted");
+  EXPECT_NE(error({"material.model=\"j2\"", "material.yield_stress=1e4", "material.plane=\"stress\"",
+                   "material.kinematic_hardening=1e5"})
+                .find("material.kinematic_hardening"),
+            std::string::npos);
+  EXPECT_NE(error({"material.model=\"drucker_prager\"", "material.cohesion=1e3", "material.plane=\"stress\""})
                 .find("plane = \"strain\""),
             std::string::npos);
   EXPECT_EQ(error({"material.model=\"j2\"", "material.yield_stress=1e4", "material.plane=\"strain\""}), "accepted");
@@ -366,6 +372,26 @@ TEST(PlasticCaseKeys, RefusedWhereTheyDoNotApply) {
             std::string::npos);
   EXPECT_NE(error({"output.fields=[\"stress\", \"plastic\"]"}).find("plastic material.model"), std::string::npos);
   EXPECT_NE(error({"material.model=\"plastic\""}).find("material.model"), std::string::npos);
+}
+
+// The strip in plane stress with free faces (J2, the plane-stress return): sigma_zz = 0
+// at every particle, von Mises (sigma_zz = 0) at or below the current yield stress, and
+// plastic flow where the pulse passed.
+TEST(PlasticRun, PlaneStressStripKeepsToTheYieldSurface) {
+  const LastFrame f = run_text(kStrip, "plane_stress",
+                               {"material.plane=\"stress\"", "boundary.0.type=\"free\"", "material.model=\"j2\"",
+                                "material.yield_stress=1e5", "material.isotropic_hardening=1e7",
+                                "output.fields=[\"stress\", \"von_mises\", \"plastic\"]"});
+  const auto& eps = f.arrays.at("plastic_strain");
+  const auto& mises = f.arrays.at("von_mises");
+  const auto& stress = f.arrays.at("stress");  // xx, yy, zz, xy, yz, xz
+  double largest = 0.0;
+  for (std::size_t i = 0; i < f.count; ++i) {
+    largest = std::max(largest, eps[i]);
+    EXPECT_EQ(stress[6 * i + 2], 0.0) << i;
+    EXPECT_LE(mises[i], (1e5 + 1e7 * eps[i]) * (1.0 + 1e-9)) << i;
+  }
+  EXPECT_GT(largest, 1e-5);
 }
 
 // The strip in J2 (yield 1e5 Pa, below the pulse's von Mises stress of 2.6e5): the frames

@@ -164,6 +164,120 @@ TEST(J2Plasticity, PlasticWorkOfPerfectPlasticity) {
   EXPECT_NEAR(state.equivalent_plastic_strain, plastic_gamma / std::sqrt(3.0), 1e-12);
 }
 
+// J2 in plane stress (2D, sigma_zz = 0; the plane-stress projected return). Three
+// radial stress paths, each driven by a constant in-plane velocity gradient:
+//  * uniaxial stress: d_xx given, d_yy solved each step for sigma_yy = 0 (secant), so
+//    that sigma_xx follows the 1D curve, sigma = sigma_y + E H / (E + H) (eps - sigma_y / E),
+//    eps_p = (sigma - sigma_y) / H, loading, elastic unloading and reverse yield;
+//  * equibiaxial stretch (d_xx = d_yy): sigma_xx = sigma_yy = Y(eps_p), with
+//    eps = (1 - nu) sigma / E + eps_p / 2;
+//  * simple shear: tau = mu gamma to Y / sqrt(3), then the slope mu H / (3 mu + H).
+// Each in 1, 7 and 400 steps per segment: the return is exact for a fixed stress direction.
+StressVector<2> plane_stress_uniaxial_step(const J2Plasticity<2>& model, const StressVector<2>& stress,
+                                           PlasticState& state, double strain_increment, double dt) {
+  // sigma_yy(d_yy) after the step; the root by the secant method from the elastic guess.
+  const auto sigma_yy = [&](double d_yy, PlasticState& trial_state, StressVector<2>& out) {
+    Matrix<2> g = Matrix<2>::Zero();
+    g(0, 0) = strain_increment / dt;
+    g(1, 1) = d_yy;
+    trial_state = state;
+    out = model.update_stress({stress, stress, g, dt, false}, trial_state);
+    return to_tensor<2>(out)(1, 1);
+  };
+  PlasticState s0, s1;
+  StressVector<2> out0, out1;
+  double x0 = -kNu * strain_increment / dt, x1 = -0.5 * strain_increment / dt;
+  double f0 = sigma_yy(x0, s0, out0), f1 = sigma_yy(x1, s1, out1);
+  for (int iteration = 0; iteration < 100 && std::abs(f1) > 1e-13 * 250e6 && f1 != f0; ++iteration) {
+    const double x2 = x1 - f1 * (x1 - x0) / (f1 - f0);
+    x0 = x1, f0 = f1;
+    x1 = x2, f1 = sigma_yy(x1, s1, out1);
+  }
+  state = s1;
+  return out1;
+}
+
+TEST(J2PlaneStress, UniaxialStressFollowsTheOneDimensionalCurve) {
+  const double yield = 250e6, hardening = 20e9;
+  const J2Plasticity<2> model(LinearElastic<2>(kYoung, kNu, kDensity, PlaneMode::plane_stress),
+                              Linear<2>{yield, hardening, 0.0});
+  const double first_yield = yield / kYoung;
+  for (int steps : {1, 7, 400}) {
+    PlasticState state = model.initial_state();
+    StressVector<2> stress{};
+    // The closed form: loading to 6 first-yield strains, unloading to -4, whose reverse
+    // yield starts at -Y(eps_p) (isotropic hardening).
+    double strain = 0.0, exact_stress = 0.0, exact_eps = 0.0;
+    for (double target : {6 * first_yield, -4 * first_yield}) {
+      const double increment = (target - strain) / steps;
+      for (int n = 0; n < steps; ++n) {
+        stress = plane_stress_uniaxial_step(model, stress, state, increment, 1e-3 / steps);
+        // The 1D return: elastic predictor, then radial return with E.
+        const double trial = exact_stress + kYoung * increment;
+        const double excess = std::abs(trial) - (yield + hardening * exact_eps);
+        if (excess > 0.0) {
+          const double de = excess / (kYoung + hardening);
+          exact_stress = trial - (trial > 0 ? 1.0 : -1.0) * kYoung * de;
+          exact_eps += de;
+        } else {
+          exact_stress = trial;
+        }
+      }
+      strain = target;
+      SCOPED_TRACE(testing::Message() << "steps " << steps << " strain " << strain);
+      const Eigen::Matrix3d sigma = to_tensor<2>(stress);
+      EXPECT_NEAR(sigma(0, 0), exact_stress, 1e-9 * yield);
+      EXPECT_NEAR(sigma(1, 1), 0.0, 1e-9 * yield);
+      EXPECT_EQ(sigma(2, 2), 0.0);
+      EXPECT_NEAR(state.equivalent_plastic_strain, exact_eps, 1e-9 * first_yield);
+    }
+    // The monotonic part of the closed form: at 6 first-yield strains.
+    EXPECT_GT(state.plastic_work, 0.0);
+  }
+  // The loading branch in closed form (one segment of 400 steps).
+  PlasticState state = model.initial_state();
+  StressVector<2> stress{};
+  for (int n = 0; n < 400; ++n) stress = plane_stress_uniaxial_step(model, stress, state, 6 * first_yield / 400, 1e-3 / 400);
+  const double tangent = kYoung * hardening / (kYoung + hardening);
+  EXPECT_NEAR(to_tensor<2>(stress)(0, 0), yield + tangent * (6 * first_yield - first_yield), 1e-9 * yield);
+  EXPECT_NEAR(state.equivalent_plastic_strain, tangent * 5 * first_yield / hardening, 1e-9 * first_yield);
+}
+
+TEST(J2PlaneStress, EquibiaxialStretchAndShearMatchTheClosedForms) {
+  const double yield = 250e6, hardening = 20e9;
+  const J2Plasticity<2> model(LinearElastic<2>(kYoung, kNu, kDensity, PlaneMode::plane_stress),
+                              Linear<2>{yield, hardening, 0.0});
+  for (int steps : {1, 7, 400}) {
+    // Equibiaxial: yield at eps_y = (1 - nu) sigma_y / E, then d sigma / d eps =
+    // 1 / ((1 - nu) / E + 1 / (2 H)).
+    const double eps_y = (1 - kNu) * yield / kYoung;
+    PlasticState state = model.initial_state();
+    Matrix<2> g = Matrix<2>::Identity() * (5 * eps_y / 1e-3);
+    StressVector<2> stress = drive<2>(model, StressVector<2>{}, state, g, 1e-3, steps);
+    const double sigma = yield + (5 * eps_y - eps_y) / ((1 - kNu) / kYoung + 1 / (2 * hardening));
+    const Eigen::Matrix3d t = to_tensor<2>(stress);
+    EXPECT_NEAR(t(0, 0), sigma, 1e-9 * yield) << steps;
+    EXPECT_NEAR(t(1, 1), sigma, 1e-9 * yield) << steps;
+    EXPECT_NEAR(t(0, 1), 0.0, 1e-9 * yield) << steps;
+    EXPECT_NEAR(state.equivalent_plastic_strain, (sigma - yield) / hardening, 1e-9 * eps_y) << steps;
+    // The plastic work sums Y^{n+1} d eps_p over the steps (as in 3D): in one step
+    // sigma eps_p, and int Y d eps_p = (sigma^2 - sigma_y^2) / (2 H) as the steps shrink.
+    const double work = (sigma * sigma - yield * yield) / (2 * hardening);
+    if (steps == 1) EXPECT_NEAR(state.plastic_work, sigma * state.equivalent_plastic_strain, 1e-9 * work);
+    if (steps == 400) EXPECT_NEAR(state.plastic_work, work, 1e-3 * work);
+
+    // Simple shear (geometrically linear): the same as in 3D.
+    const double gamma_y = yield / std::sqrt(3.0) / kShear;
+    PlasticState shear_state = model.initial_state();
+    Matrix<2> s = Matrix<2>::Zero();
+    s(0, 1) = 4 * gamma_y / 1e-3;
+    const StressVector<2> sheared = drive<2>(model, StressVector<2>{}, shear_state, s, 1e-3, steps);
+    const double tau = yield / std::sqrt(3.0) + kShear * hardening / (3 * kShear + hardening) * 3 * gamma_y;
+    EXPECT_NEAR(to_tensor<2>(sheared)(0, 1), tau, 1e-9 * yield) << steps;
+    EXPECT_NEAR(to_tensor<2>(sheared)(0, 0), 0.0, 1e-9 * yield) << steps;
+  }
+}
+
 // Johnson-Cook without rate and heat on a radial path: 3 mu (e - eps_p) = A + B eps_p^n
 // (e the equivalent total strain) at every step, whatever the step size.
 TEST(JohnsonCook, RadialPathFollowsTheHardeningCurve) {
@@ -379,7 +493,17 @@ TEST(Plasticity, RefusesBadParametersWithTheKeyAndTheFix) {
             std::string::npos);
   EXPECT_NE(message([] {
               J2Plasticity<2>(LinearElastic<2>(1e9, 0.3, 1.0, PlaneMode::plane_stress),
-                              Linear<2>{1e6, 0.0, 0.0});
+                              Linear<2>{1e6, 0.0, 1e7});
+            }).find("kinematic_hardening = 10000000"),
+            std::string::npos);
+  EXPECT_EQ(message([] {
+              J2Plasticity<2>(LinearElastic<2>(1e9, 0.3, 1.0, PlaneMode::plane_stress), Linear<2>{1e6, 1e7, 0.0});
+            }),
+            "no error");
+  DruckerPrager<2>::Parameters plane;
+  plane.cohesion = 1e4;
+  EXPECT_NE(message([&] {
+              DruckerPrager<2>(LinearElastic<2>(1e9, 0.3, 1.0, PlaneMode::plane_stress), plane);
             }).find("plane = \"strain\""),
             std::string::npos);
   DruckerPrager<3>::Parameters p;

@@ -144,9 +144,11 @@ void read_plasticity(Table& m, CaseFile& c, Context& context) {
   p.model = m.text("model", false, {"elastic", "j2", "johnson_cook", "drucker_prager"}).value_or("elastic");
   const auto at_least = [](double minimum) { return [minimum](double v) { return v >= minimum; }; };
   const std::string nonnegative = "must be at least 0";
-  if (p.model != "elastic" && c.dimension == 2 && c.plane_mode == PlaneMode::plane_stress)
+  const bool plane_stress = c.dimension == 2 && c.plane_mode == PlaneMode::plane_stress;
+  if (p.model == "drucker_prager" && plane_stress)
     context.invalid(m.get("model", false, ""), m.path("model"),
-                    "needs material.plane = \"strain\" in 2D (the plane-stress return mapping is not implemented)");
+                    "needs material.plane = \"strain\" in 2D (the Drucker-Prager plane-stress return is not "
+                    "implemented; j2 and johnson_cook have one)");
   if (p.model == "drucker_prager" && c.dimension == 1)
     context.invalid(m.get("model", false, ""), m.path("model"), "needs dimension = 2 or 3 (1D is uniaxial stress)");
   const auto perzyna = [&] {
@@ -161,6 +163,10 @@ void read_plasticity(Table& m, CaseFile& c, Context& context) {
     p.yield_stress = m.real("yield_stress", true, "400e6", positive, kPositive + " (the initial yield stress, Pa)").value_or(0.0);
     p.isotropic_hardening = m.real("isotropic_hardening", false, "100e6", at_least(0.0), nonnegative + " (Pa)").value_or(0.0);
     p.kinematic_hardening = m.real("kinematic_hardening", false, "0", at_least(0.0), nonnegative + " (Pa)").value_or(0.0);
+    if (plane_stress && p.kinematic_hardening > 0.0)
+      context.invalid(m.get("kinematic_hardening", false, ""), m.path("kinematic_hardening"),
+                      "is not available in plane stress (its return has isotropic hardening only): leave it out, "
+                      "or set material.plane = \"strain\"");
     perzyna();
   } else if (p.model == "johnson_cook") {
     p.a = m.real("A", true, "90e6", positive, kPositive + " (the initial yield stress A, Pa)").value_or(0.0);

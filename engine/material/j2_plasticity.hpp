@@ -1,7 +1,7 @@
 // J2 (von Mises) plasticity with the Jaumann rate (issue 16): linear isotropic and
 // kinematic hardening, or the Johnson-Cook strength (strain hardening, strain rate,
 // optional thermal softening from the plastic work), optionally regularised by Perzyna
-// viscoplasticity. Dim = 1 (uniaxial stress), 2 (plane strain) and 3.
+// viscoplasticity. Dim = 1 (uniaxial stress), 2 (plane strain or plane stress) and 3.
 //
 // Each step (Simo & Hughes 1998, Box 3.2; de Souza Neto, Peric & Owen 2008, section 7.3):
 //   1. elastic predictor: sigma_tr = sigma^n + dt (D : d + W sigma - sigma W)
@@ -23,6 +23,18 @@
 //                  rate = fluidity <(q - Y) / sigma_y>^N (Perzyna 1966).
 // Thermal softening: the temperature rises by chi dW_p / (rho_0 c_v) after each step
 // (Taylor-Quinney factor chi; explicit in the temperature: the step's Y uses T^n).
+//
+// Plane stress (2D, material.plane = "stress"; isotropic hardening, Johnson-Cook or
+// Perzyna, no kinematic hardening): sigma_zz = 0 with a free plastic e_zz, by the
+// plane-stress projected return (Simo & Taylor 1986; de Souza Neto et al. 2008, section
+// 9.4.3). With the in-plane trial stress from the plane-stress elastic law, the new stress
+// is sigma = [C^-1 + dgamma P]^-1 C^-1 sigma_tr, diagonal in the eigenvectors shared by C
+// and the projector P (von Mises q^2 = 3/2 sigma^T P sigma):
+//   s11 + s22 = (s11 + s22)_tr / (1 + E dgamma / (3 (1 - nu))),
+//   s22 - s11 = (s22 - s11)_tr / (1 + 2 mu dgamma),  s12 = s12_tr / (1 + 2 mu dgamma),
+// dgamma the root of  xi(dgamma) / 2 - Y(eps_p + de, de / dt)^2 / 3 = 0  with
+//   xi = (s11 + s22)^2 / 6 + (s22 - s11)^2 / 2 + 2 s12^2 (at the new stress),
+//   de = dgamma sqrt(2 xi / 3),  and plastic work dgamma xi = Y de.
 #pragma once
 
 #include "engine/material/linear_elastic.hpp"
@@ -45,15 +57,15 @@ Eigen::Matrix3d embed_gradient(const Matrix<Dim>& grad_v) {
   return g;
 }
 
-/// The plastic models' one refusal of a 2D plane-stress elastic part (their returns
-/// keep sigma_zz as a stress of its own: plane strain).
+/// Drucker-Prager's refusal of a 2D plane-stress elastic part (its return keeps sigma_zz
+/// as a stress of its own: plane strain; J2 has a plane-stress return).
 template <int Dim>
 void require_plane_strain(const LinearElastic<Dim>& elastic) {
   if constexpr (Dim == 2)
     if (elastic.plane_mode() == PlaneMode::plane_stress)
       throw std::invalid_argument(
-          "material: plasticity in 2D needs material.plane = \"strain\" (the plane-stress return mapping, "
-          "sigma_zz = 0 with a plastic e_zz, is not implemented)");
+          "material: drucker_prager in 2D needs material.plane = \"strain\" (its plane-stress return "
+          "mapping, sigma_zz = 0 with a plastic e_zz, is not implemented)");
 }
 
 template <int Dim>
@@ -85,13 +97,17 @@ class J2Plasticity {
   J2Plasticity(LinearElastic<Dim> elastic, Linear hardening,
                std::optional<Perzyna> perzyna = std::nullopt)
       : elastic_(std::move(elastic)), linear_(hardening), perzyna_(perzyna) {
-    require_plane_strain(elastic_);
     check_parameter("j2", "yield_stress", linear_.yield_stress, 0.0, true,
                     "give the initial yield stress in Pa");
     check_parameter("j2", "isotropic_hardening", linear_.isotropic_modulus, 0.0, false,
                     "give a hardening modulus >= 0 (Pa)");
     check_parameter("j2", "kinematic_hardening", linear_.kinematic_modulus, 0.0, false,
                     "give a hardening modulus >= 0 (Pa)");
+    if (plane_stress() && linear_.kinematic_modulus > 0.0)
+      throw std::invalid_argument(
+          "material (j2): kinematic_hardening = " + std::to_string(linear_.kinematic_modulus) +
+          " is not available in plane stress (the plane-stress return has isotropic hardening only): "
+          "set it to 0, or use material.plane = \"strain\"");
     if (perzyna_) {
       check_parameter("j2", "fluidity", perzyna_->fluidity, 0.0, true,
                       "give the Perzyna fluidity in 1/s");
@@ -101,7 +117,6 @@ class J2Plasticity {
   }
   J2Plasticity(LinearElastic<Dim> elastic, JohnsonCook strength)
       : elastic_(std::move(elastic)), johnson_cook_(strength) {
-    require_plane_strain(elastic_);
     const JohnsonCook& j = *johnson_cook_;
     check_parameter("johnson_cook", "A", j.a, 0.0, true, "give the initial yield stress A in Pa");
     check_parameter("johnson_cook", "B", j.b, 0.0, false, "give the hardening B >= 0 (Pa)");
@@ -182,6 +197,8 @@ class J2Plasticity {
       finish(state, increment, updated[0] * direction * increment);
       return updated;
     } else {
+      if constexpr (Dim == 2)
+        if (plane_stress()) return plane_stress_return(trial, state, dt);
       const Eigen::Matrix3d sigma = to_tensor<Dim>(trial);
       const double mean = sigma.trace() / 3.0;
       const Eigen::Matrix3d relative = deviator(sigma) - state.back_stress;
@@ -200,6 +217,51 @@ class J2Plasticity {
   }
 
  private:
+  bool plane_stress() const { return Dim == 2 && elastic_.plane_mode() == PlaneMode::plane_stress; }
+
+  /// The plane-stress return (see the file comment): sigma_zz = 0, isotropic hardening.
+  StressVector<Dim> plane_stress_return(const StressVector<Dim>& trial, PlasticState& state, double dt) const {
+    const Eigen::Matrix3d sigma = to_tensor<Dim>(trial);
+    const double sum = sigma(0, 0) + sigma(1, 1), difference = sigma(1, 1) - sigma(0, 0), shear = sigma(0, 1);
+    const double eps = state.equivalent_plastic_strain;
+    const auto xi_at = [&](double dgamma, double& sum_factor, double& shear_factor) {
+      sum_factor = 1.0 / (1.0 + elastic_.young_modulus() * dgamma / (3.0 * (1.0 - elastic_.poisson_ratio())));
+      shear_factor = 1.0 / (1.0 + 2.0 * elastic_.shear_modulus() * dgamma);
+      const double a = sum * sum_factor, b = difference * shear_factor, c = shear * shear_factor;
+      return a * a / 6.0 + 0.5 * b * b + 2.0 * c * c;
+    };
+    double sum_factor = 1.0, shear_factor = 1.0;
+    const double xi_trial = xi_at(0.0, sum_factor, shear_factor);
+    if (!(std::sqrt(1.5 * xi_trial) > yield_stress(eps, 0.0, state.temperature))) return trial;
+    // phi(dgamma) = xi / 2 - Y^2 / 3 decreases from phi(0) > 0 (xi falls, de and Y rise).
+    const auto phi = [&](double dgamma) {
+      double f1 = 0.0, f2 = 0.0;
+      const double xi = xi_at(dgamma, f1, f2);
+      const double increment = dgamma * std::sqrt(2.0 * xi / 3.0);
+      const double y = yield_stress(eps + increment, increment / dt, state.temperature);
+      return 0.5 * xi - y * y / 3.0;
+    };
+    double upper = 1.0 / (2.0 * elastic_.shear_modulus());
+    for (int doubling = 0; doubling < 200 && phi(upper) > 0.0; ++doubling) upper *= 2.0;
+    const double dgamma = decreasing_root(
+        [&](double x, double& slope) {
+          const double value = phi(x);
+          const double step = std::max(1e-8 * x, 1e-300);
+          slope = (phi(x + step) - value) / step;
+          return value;
+        },
+        upper);
+    const double xi = xi_at(dgamma, sum_factor, shear_factor);
+    const double increment = dgamma * std::sqrt(2.0 * xi / 3.0);
+    const double new_sum = sum * sum_factor, new_difference = difference * shear_factor;
+    Eigen::Matrix3d updated = Eigen::Matrix3d::Zero();
+    updated(0, 0) = 0.5 * (new_sum - new_difference);
+    updated(1, 1) = 0.5 * (new_sum + new_difference);
+    updated(0, 1) = updated(1, 0) = shear * shear_factor;
+    finish(state, increment, dgamma * xi);
+    return from_tensor<Dim>(updated);
+  }
+
   bool has_kinematic() const { return !johnson_cook_ && linear_.kinematic_modulus > 0.0; }
   double homologous(double temperature) const {
     const JohnsonCook& j = *johnson_cook_;
