@@ -9,6 +9,10 @@ that `tsph validate taylor_bar` wrote), to tell the boundary treatments apart.
                           plane x = 0 inside the body (a frictionless rigid wall is its
                           mirror image)
     tsph run DIR/half.toml --out DIR/half; tsph run DIR/mirror.toml --out DIR/mirror
+    tools/diag/taylor_bar_variants.py cylinder N PATH
+        the whole bar at dx = R0 / N as tools/validate/taylor_bar.cpp writes it (R0 / 8:
+        tsph run tools/cases/taylor_bar_3d.toml --set geometry.spacing=4e-4
+        --set 'geometry.particle_file="PATH"', 16 min on 2 threads)
     tools/diag/taylor_bar_variants.py measure RUN_DIR [DX]
         R / R0 of the impact-face particles that start on the true radius along the
         lattice axes (what tsph validate taylor_bar reports), the face's convex hull as
@@ -62,6 +66,32 @@ def write(directory, particles):
     print(f"{len(half)} particles in {directory}/half.csv, {len(mirror)} in {directory}/mirror.csv")
 
 
+def cylinder(n, path):
+    """tools/validate/taylor_bar.cpp write_cylinder (the whole bar) at dx = R0 / n."""
+    length = 32.4e-3
+    dx = R0 / n
+    nx = round(length / dx)
+    cells_at_node, cells = {}, 0
+    for j in range(-n - 1, n + 1):
+        for k in range(-n - 1, n + 1):
+            if (j + 0.5) ** 2 + (k + 0.5) ** 2 <= n * n:
+                cells += 1
+                for a in (0, 1):
+                    for b in (0, 1):
+                        cells_at_node[(j + a, k + b)] = cells_at_node.get((j + a, k + b), 0) + 1
+    scale = np.pi * R0 * R0 / (cells * dx * dx)
+    with open(path, "w") as f:
+        f.write(f"# Taylor bar: dx = R0 / {n}; written by tools/diag/taylor_bar_variants.py\n")
+        f.write("x,y,z,volume,vx,vy,vz,group\n")
+        for i in range(nx + 1):
+            for node in sorted(cells_at_node):
+                count = cells_at_node[node]
+                volume = (0.5 if i in (0, nx) else 1.0) * dx ** 3 * 0.25 * count * scale
+                group = 2 if i == nx else (1 if count <= 2 else 0)
+                f.write("%.10g,%.10g,%.10g,%.10g,%s,0,0,%d\n" % (i * dx, node[0] * dx, node[1] * dx, volume,
+                                                               "0" if i == 0 else "-227", group))
+
+
 def measure(run, dx):
     frames = sorted(glob.glob(os.path.join(run, "particles_*.vtu")))
     n = int(round(R0 / dx))
@@ -90,6 +120,8 @@ def measure(run, dx):
 if __name__ == "__main__":
     if len(sys.argv) >= 3 and sys.argv[1] == "write":
         write(sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else os.path.join(ROOT, "tools/cases/taylor_bar_3d.csv"))
+    elif len(sys.argv) == 4 and sys.argv[1] == "cylinder":
+        cylinder(int(sys.argv[2]), sys.argv[3])
     elif len(sys.argv) >= 3 and sys.argv[1] == "measure":
         measure(sys.argv[2], float(sys.argv[3]) if len(sys.argv) > 3 else 0.8e-3)
     else:
