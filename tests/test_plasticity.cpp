@@ -243,6 +243,31 @@ TEST(J2PlaneStress, UniaxialStressFollowsTheOneDimensionalCurve) {
   EXPECT_NEAR(state.equivalent_plastic_strain, tangent * 5 * first_yield / hardening, 1e-9 * first_yield);
 }
 
+// Johnson-Cook (no rate, no heat) in plane stress on the uniaxial stress path: every
+// step lands on sigma_xx = A + B eps_p^n with sigma_yy = 0, and the total strain is
+// sigma / E + eps_p (the 1D curve), whatever the step.
+TEST(J2PlaneStress, JohnsonCookUniaxialStressOnTheHardeningCurve) {
+  J2Plasticity<2>::JohnsonCook jc;
+  jc.a = 250e6, jc.b = 400e6, jc.n = 0.3;
+  const J2Plasticity<2> model(LinearElastic<2>(kYoung, kNu, kDensity, PlaneMode::plane_stress), jc);
+  for (int steps : {3, 50}) {
+    PlasticState state = model.initial_state();
+    StressVector<2> stress{};
+    const double total = 8 * jc.a / kYoung;
+    for (int n = 0; n < steps; ++n) {
+      stress = plane_stress_uniaxial_step(model, stress, state, total / steps, 1e-3 / steps);
+      if (state.equivalent_plastic_strain > 0.0) {
+        const double y = jc.a + jc.b * std::pow(state.equivalent_plastic_strain, jc.n);
+        EXPECT_NEAR(to_tensor<2>(stress)(0, 0), y, 1e-9 * y) << steps << " step " << n;
+        EXPECT_NEAR(to_tensor<2>(stress)(0, 0) / kYoung + state.equivalent_plastic_strain, total * (n + 1) / steps,
+                    1e-9 * total)
+            << steps << " step " << n;
+      }
+    }
+    EXPECT_GT(state.equivalent_plastic_strain, 0.0);
+  }
+}
+
 TEST(J2PlaneStress, EquibiaxialStretchAndShearMatchTheClosedForms) {
   const double yield = 250e6, hardening = 20e9;
   const J2Plasticity<2> model(LinearElastic<2>(kYoung, kNu, kDensity, PlaneMode::plane_stress),

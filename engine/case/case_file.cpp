@@ -417,6 +417,11 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.initial_stress = i.numbers("stress", false, stress_count,
                                  dim == 2 ? "xx, yy, xy, zz (Pa)" : "xx, yy, zz, xy, yz, zx (Pa)")
                            .value_or(std::vector<double>(stress_count, 0.0));
+    if (dim == 2 && c.plane_mode == PlaneMode::plane_stress && c.initial_stress.size() == 4 && c.initial_stress[3] != 0.0)
+      context.invalid(i.get("stress", false, ""), i.path("stress"),
+                      "has sigma_zz = " + format_number(c.initial_stress[3]) +
+                          " in plane stress, where sigma_zz = 0: set the fourth component to 0, or "
+                          "material.plane = \"strain\"");
     auto nonzero = [&](Table& profile, const std::string& key, const std::vector<double>& v) {
       if (v.size() == dim && std::all_of(v.begin(), v.end(), [](double x) { return x == 0.0; }))
         context.invalid(profile.get(key, false, ""), profile.path(key), "must be non-zero");

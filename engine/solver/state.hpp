@@ -209,6 +209,7 @@ struct SolverState {
   /// Fills BoundaryParticles::extra_plane from the symmetry conditions' also_on_plane ids.
   void assign_extra_planes() {
     boundary.extra_plane.assign(boundary.size(), {-1, -1});
+    if constexpr (Dim == 1) return;  // an end point is on one plane: its last condition wins
     std::vector<std::int64_t> index_of_id;
     for (std::size_t k = 0; k < boundaries.size(); ++k) {
       const auto& condition = boundaries[k];

@@ -95,6 +95,7 @@ struct CharacteristicBoundary {
       if (state.settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient &&
           condition.kind == BoundaryCondition<Dim>::Kind::velocity) {
         WallGradient<Dim>::apply(state, model, b, i, condition, dt, t_new);
+        if (SymmetryPlanes<Dim>::any(state, b)) SymmetryPlanes<Dim>::project_particle(state, b, i, t_new);
         continue;
       }
       const Vec& n = state.boundary.normal[b];

@@ -40,6 +40,12 @@ Matrix<Dim> normal_frame(const Vector<Dim>& n) {
 /// of the outward kernel normal -sum_J V_J grad W_IJ (cosine below this value).
 inline constexpr double kSurfaceCosine = 0.5;
 
+/// A further symmetry plane of a boundary particle (symmetry_planes.hpp) acts where it
+/// crosses the particle's own face: their normals more than 25 degrees apart, and more
+/// than 25 degrees from an earlier further plane (sine above this value).
+inline constexpr double kSameFaceCosine = 0.906;  // cos 25 degrees
+inline constexpr double kCrossingSine = 0.423;    // sin 25 degrees
+
 /// The in-plane (Dim x Dim) part of a stress vector as a tensor.
 template <int Dim>
 Matrix<Dim> in_plane(const StressVector<Dim>& s) {
@@ -98,17 +104,22 @@ struct BoundaryNormals {
         // Further symmetry planes (symmetry_planes.hpp): each one's normal from the
         // particles that keep to it, then the own normal made orthogonal to them (the
         // kernel normal of a particle on a plane leans across it: its mirror neighbours
-        // are missing).
+        // are missing). A plane on the particle's own face (a punch on part of a
+        // symmetry face: normals within 25 degrees), or one that repeats an earlier
+        // plane, is left out for this step (normal 0: the projection does nothing), so
+        // the later condition wins there as it does without further planes.
+        Vec normal = face_normal(state, i, kernel_normal, state.real.boundary[i]);
         for (std::size_t e = 0; e < 2; ++e) {
+          state.boundary.extra_normal[b][e] = Vec::Zero();
           const std::int32_t k = state.boundary.extra_plane[b][e];
           if (k < 0) continue;
           Vec m = face_normal(state, i, kernel_normal, k);
           for (std::size_t f = 0; f < e; ++f)
-            m = (m - m.dot(state.boundary.extra_normal[b][f]) * state.boundary.extra_normal[b][f]).normalized();
-          state.boundary.extra_normal[b][e] = m;
+            m -= m.dot(state.boundary.extra_normal[b][f]) * state.boundary.extra_normal[b][f];
+          if (m.norm() < kCrossingSine || std::abs(normal.dot(m)) > m.norm() * kSameFaceCosine) continue;
+          state.boundary.extra_normal[b][e] = m.normalized();
         }
-        Vec normal = face_normal(state, i, kernel_normal, state.real.boundary[i]);
-        for (std::size_t e = 0; e < 2 && state.boundary.extra_plane[b][e] >= 0; ++e) {
+        for (std::size_t e = 0; e < 2; ++e) {
           const Vec& m = state.boundary.extra_normal[b][e];
           const Vec off_plane = normal - normal.dot(m) * m;
           if (off_plane.norm() > 1e-3) normal = off_plane.normalized();

@@ -25,7 +25,9 @@ struct SymmetryPlanes {
   using Vec = Vector<Dim>;
   using Mat = Matrix<Dim>;
 
-  /// Whether boundary slot b keeps to a further plane.
+  /// Whether boundary slot b keeps to a further plane (one whose normal is 0 this step,
+  /// on the particle's own face, is left out: boundary/normals.hpp; its projection is
+  /// the identity).
   static bool any(const SolverState<Dim>& state, std::size_t b) { return state.boundary.extra_plane[b][0] >= 0; }
 
   /// The velocity of the further plane e (0 or 1) of slot b at time t, along its normal
@@ -47,6 +49,18 @@ struct SymmetryPlanes {
       const double normal_stress = m.dot(stress * m);
       stress = projector * stress * projector + normal_stress * (m * m.transpose());
     }
+  }
+
+  /// The projection applied to real particle i's stored velocity and stress (slot b).
+  static void project_particle(SolverState<Dim>& state, std::size_t b, std::uint32_t i, double t) {
+    Vec velocity = state.velocity_of(i);
+    StressVector<Dim> stress = SolverState<Dim>::stress_of(state.real, i);
+    Mat in_plane_stress = to_tensor<Dim>(stress).template topLeftCorner<Dim, Dim>();
+    project(state, b, t, velocity, in_plane_stress);
+    for (int r = 0; r < Dim; ++r)
+      for (int c = r; c < Dim; ++c) stress[stress_index<Dim>(r, c)] = in_plane_stress(r, c);
+    for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = velocity[d];
+    for (int m = 0; m < stress_component_count<Dim>; ++m) state.real.stress[m][i] = stress[m];
   }
 
   /// Removes the components of a force (or a move) along each further plane's normal.
