@@ -317,8 +317,7 @@ TEST(SymmetryPlane, QuarterRodFollowsTheWholeRod) {
 // A later condition on part of a symmetry face (a punch pressed into the plane) wins
 // there, as without further planes: the plane's normal is its own (within 25 degrees),
 // so the plane is left out (boundary/normals.hpp). Before that rule the punch particles
-// were held on the plane (v_y = 0) and never moved. The corners of a crossing condition
-// still keep to the plane.
+// were held on the plane (v_y = 0) and never moved.
 TEST(SymmetryPlane, LaterConditionOnTheSameFaceWins) {
   for (const char* punch : {"velocity", "symmetry"}) {
     SCOPED_TRACE(punch);
