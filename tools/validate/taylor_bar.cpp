@@ -5,14 +5,15 @@
 // Zienkiewicz et al. 1998, Foulk et al. 2021). tools/cases/taylor_bar_3d.toml, the whole
 // bar (no symmetry planes), updated Lagrangian with the adaptive time step; the real
 // particles are written here for each spacing (write_cylinder) and read as a particle
-// file.
+// file. `taylor_bar_quarter`: the quarter y, z >= 0 between two symmetry planes
+// (tools/cases/taylor_bar_quarter_3d.toml; not yet validated, docs/validation.md).
 //
 // The body on the cubic lattice of spacing dx: the union of the lattice cells whose
 // centre lies in the circle of radius R0 (its area is pi R0^2 to a few per cent), the
 // real particles at their corners, each carrying a quarter of the area of every filled
 // cell it touches (the box's trapezoid rule), scaled so that the mass is exact. The
-// figures: R_f, the mean distance from the axis of the four impact-face particles that
-// start on the true radius, (+-R0, 0) and (0, +-R0) (the staircase's corners stand out
+// figures: R_f, the mean distance from the axis of the impact-face particles that start
+// on the true radius, (+-R0, 0) and (0, +-R0) (two of them in the quarter; the staircase's corners stand out
 // to R0 + 0.3 dx); L_f, the mean axial position of the far end's particles.
 #include "tools/validate/support.hpp"
 
