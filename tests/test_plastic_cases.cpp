@@ -1,6 +1,7 @@
 // Issue 16 through the whole case pipeline: the symmetry (roller) boundary condition,
 // the material.model keys (read, refused where they do not apply), and a plastic run's
 // state in the frames and its restart from a checkpoint.
+#include "engine/case/case_build.hpp"
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/output/vtu_writer.hpp"
@@ -383,6 +384,32 @@ region = { type = "half_space", point = [0.0, 0.0], normal = [-1.0, 0.0] }
     EXPECT_NE(message.find("'left plane'"), std::string::npos) << message;
     EXPECT_NE(message.find("'left end'"), std::string::npos) << message;
     EXPECT_NE(message.find("at most 1 further"), std::string::npos) << message;
+  }
+}
+
+// One symmetry condition whose regions are two planes that meet (the rod's y = 0 and
+// z = 0 faces under one [[boundary]]): refused with the fix. Before, the edge particles
+// took the kernel normal between the planes and left both (an impact of such a rod
+// diverged at step 56 with an edge particle at y = -0.006 m).
+TEST(SymmetryPlane, MeetingPlanesOfOneConditionRefused) {
+  std::string text = kRod;
+  const std::string first = "name = \"y planes\"";
+  const std::string second = "[[boundary]]\nname = \"z planes\"\ntype = \"symmetry\"\nregion = [";
+  ASSERT_NE(text.find(second), std::string::npos);
+  // The z planes' regions appended to the y planes' condition.
+  const std::size_t at = text.find(second);
+  const std::size_t end = text.find("]\n", at + second.size());
+  const std::string z_regions = text.substr(at + second.size(), end - at - second.size());
+  text.erase(at, end + 2 - at);
+  const std::size_t y_end = text.find("]\n", text.find(first));
+  text.insert(y_end, ",\n          " + z_regions);
+  try {
+    build_case<3>(load_case_text(text, "meeting.toml"));
+    FAIL() << "accepted:\n" << text;
+  } catch (const CaseError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("'y planes': its regions 0 and 2 are planes that meet"), std::string::npos) << message;
+    EXPECT_NE(message.find("give each plane its own [[boundary]]"), std::string::npos) << message;
   }
 }
 

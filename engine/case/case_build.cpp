@@ -291,6 +291,30 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   if (!errors.empty()) throw CaseError(errors);
   for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
     if (b.conditions[k].kind != BoundaryCondition<Dim>::Kind::symmetry) continue;
+    // Two planes of one symmetry condition that meet (half-spaces more than 25 degrees
+    // apart, both holding a particle): its particles there would take one normal, the
+    // kernel normal between the planes, and leave both. Each plane needs its own
+    // condition; then the line keeps to both (BoundaryCondition::also_on_plane).
+    const auto& regions = regions_of[k];
+    for (std::size_t r = 0; r < regions.size() && errors.empty(); ++r)
+      for (std::size_t q = r + 1; q < regions.size() && errors.empty(); ++q) {
+        if (regions[r].kind != Region<Dim>::Kind::half_space || regions[q].kind != Region<Dim>::Kind::half_space) continue;
+        const Vec nr = regions[r].normal.normalized(), nq = regions[q].normal.normalized();
+        if (std::abs(nr.dot(nq)) > 0.906) continue;  // parallel planes (cos 25 degrees)
+        for (std::size_t i = 0; i < b.real.size(); ++i) {
+          Vec x0;
+          for (int d = 0; d < Dim; ++d) x0[d] = b.real.initial_position[d][i];
+          if (regions[r].contains(x0, b.real.group[i], tolerance) && regions[q].contains(x0, b.real.group[i], tolerance)) {
+            errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + c.boundaries[k].name +
+                             "': its regions " + std::to_string(r) + " and " + std::to_string(q) +
+                             " are planes that meet (real particle " + std::to_string(b.real.id[i]) +
+                             " lies on both): one symmetry condition keeps a particle to one plane; give each "
+                             "plane its own [[boundary]] of type \"symmetry\" (the line where they meet then "
+                             "keeps to both)");
+            break;
+          }
+        }
+      }
     for (std::size_t i = 0; i < b.real.size(); ++i) {
       if (b.real.boundary[i] == static_cast<std::int32_t>(k)) continue;
       Vec x0;
@@ -302,6 +326,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
         }
     }
   }
+  if (!errors.empty()) throw CaseError(errors);
   for (std::size_t k = 0; k < c.boundaries.size(); ++k)
     b.boundary_counts.emplace_back(
         c.boundaries[k].name,
