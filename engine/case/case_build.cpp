@@ -289,41 +289,35 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
     if (!missed.empty()) errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + s.name + "': " + missed);
   }
   if (!errors.empty()) throw CaseError(errors);
-  for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
+  // A symmetry condition's particles that a later condition took keep to its plane too
+  // (BoundaryCondition::also_on_plane). Two planes of one condition that meet (half-spaces
+  // whose normals lie more than 25 degrees apart, kSameFaceCosine, both holding a particle)
+  // are refused: the particles there would take one normal, the kernel normal between
+  // the planes, and leave both; each plane needs its own condition.
+  for (std::size_t k = 0; k < c.boundaries.size() && errors.empty(); ++k) {
     if (b.conditions[k].kind != BoundaryCondition<Dim>::Kind::symmetry) continue;
-    // Two planes of one symmetry condition that meet (half-spaces more than 25 degrees
-    // apart, both holding a particle): its particles there would take one normal, the
-    // kernel normal between the planes, and leave both. Each plane needs its own
-    // condition; then the line keeps to both (BoundaryCondition::also_on_plane).
     const auto& regions = regions_of[k];
-    for (std::size_t r = 0; r < regions.size() && errors.empty(); ++r)
-      for (std::size_t q = r + 1; q < regions.size() && errors.empty(); ++q) {
-        if (regions[r].kind != Region<Dim>::Kind::half_space || regions[q].kind != Region<Dim>::Kind::half_space) continue;
-        const Vec nr = regions[r].normal.normalized(), nq = regions[q].normal.normalized();
-        if (std::abs(nr.dot(nq)) > 0.906) continue;  // parallel planes (cos 25 degrees)
-        for (std::size_t i = 0; i < b.real.size(); ++i) {
-          Vec x0;
-          for (int d = 0; d < Dim; ++d) x0[d] = b.real.initial_position[d][i];
-          if (regions[r].contains(x0, b.real.group[i], tolerance) && regions[q].contains(x0, b.real.group[i], tolerance)) {
-            errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + c.boundaries[k].name +
-                             "': its regions " + std::to_string(r) + " and " + std::to_string(q) +
-                             " are planes that meet (real particle " + std::to_string(b.real.id[i]) +
-                             " lies on both): one symmetry condition keeps a particle to one plane; give each "
-                             "plane its own [[boundary]] of type \"symmetry\" (the line where they meet then "
-                             "keeps to both)");
-            break;
-          }
-        }
-      }
-    for (std::size_t i = 0; i < b.real.size(); ++i) {
-      if (b.real.boundary[i] == static_cast<std::int32_t>(k)) continue;
+    for (std::size_t i = 0; i < b.real.size() && errors.empty(); ++i) {
       Vec x0;
       for (int d = 0; d < Dim; ++d) x0[d] = b.real.initial_position[d][i];
-      for (const Region<Dim>& region : regions_of[k])
-        if (region.contains(x0, b.real.group[i], tolerance)) {
-          b.conditions[k].also_on_plane.push_back(b.real.id[i]);
+      const Region<Dim>* first = nullptr;  // the first half-space region holding the particle
+      bool held = false;
+      for (std::size_t r = 0; r < regions.size(); ++r) {
+        if (!regions[r].contains(x0, b.real.group[i], tolerance)) continue;
+        held = true;
+        if (regions[r].kind != Region<Dim>::Kind::half_space) continue;
+        if (first && std::abs(first->normal.dot(regions[r].normal)) <= kSameFaceCosine) {
+          errors.push_back(c.path + ": boundary[" + std::to_string(k) + "] '" + c.boundaries[k].name + "': its regions " +
+                           std::to_string(first - regions.data()) + " and " + std::to_string(r) +
+                           " are planes that meet (real particle " + std::to_string(b.real.id[i]) +
+                           " lies on both): one symmetry condition keeps a particle to one plane; give each "
+                           "plane its own [[boundary]] of type \"symmetry\" (the line where they meet then "
+                           "keeps to both)");
           break;
         }
+        if (!first) first = &regions[r];
+      }
+      if (held && b.real.boundary[i] != static_cast<std::int32_t>(k)) b.conditions[k].also_on_plane.push_back(b.real.id[i]);
     }
   }
   if (!errors.empty()) throw CaseError(errors);

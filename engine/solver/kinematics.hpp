@@ -98,32 +98,29 @@ struct Motion {
           for (std::size_t i = begin; i < end; ++i) {
             bool trapezoid = !std::isfinite(state.next_position[0][i]);
             bool on_plane = false;  // a symmetry plane: the move keeps to the plane
-            if (const std::int32_t b = state.boundary.slot[i]; b >= 0 && !trapezoid) {
+            const std::int32_t slot = state.boundary.slot[i];
+            if (slot >= 0 && !trapezoid) {
               const auto kind = state.condition_of(i).kind;
               trapezoid = kind == BoundaryCondition<Dim>::Kind::velocity;
               on_plane = kind == BoundaryCondition<Dim>::Kind::symmetry;
             }
+            const auto b = static_cast<std::size_t>(slot);
+            const bool further_planes = slot >= 0 && !trapezoid && SymmetryPlanes<Dim>::any(state, b);
+            if (on_plane || further_planes) {
+              // Along each plane (its own, and the further ones: symmetry_planes.hpp) as the
+              // material, across it as the (moving) wall, whose velocity at n+1 the
+              // particle has.
+              Vec step;
+              for (int d = 0; d < Dim; ++d) step[d] = state.next_position[d][i] - state.real.position[d][i];
+              const Vec v = state.velocity_of(i);
+              const auto keep_to = [&](const Vec& n) { step -= (step.dot(n) - 0.5 * dt * n.dot(v)) * n; };
+              if (on_plane) keep_to(state.boundary.normal[b]);
+              if (further_planes)
+                for (std::size_t e = 0; e < 2 && state.boundary.extra_plane[b][e] >= 0; ++e)
+                  keep_to(state.boundary.extra_normal[b][e]);
+              for (int d = 0; d < Dim; ++d) state.next_position[d][i] = state.real.position[d][i] + step[d];
+            }
             double moved = 0.0;
-            const std::int32_t slot = state.boundary.slot[i];
-            if (slot >= 0 && !trapezoid && SymmetryPlanes<Dim>::any(state, static_cast<std::size_t>(slot))) {
-              // Further planes: across each, the move is the plane's (the velocity at
-              // n+1 was projected onto them: symmetry_planes.hpp).
-              const auto b = static_cast<std::size_t>(slot);
-              Vec step;
-              for (int d = 0; d < Dim; ++d) step[d] = state.next_position[d][i] - state.real.position[d][i];
-              for (std::size_t e = 0; e < 2 && state.boundary.extra_plane[b][e] >= 0; ++e) {
-                const Vec& m = state.boundary.extra_normal[b][e];
-                step -= (step.dot(m) - 0.5 * dt * m.dot(state.velocity_of(i))) * m;
-              }
-              for (int d = 0; d < Dim; ++d) state.next_position[d][i] = state.real.position[d][i] + step[d];
-            }
-            if (on_plane) {  // along the plane as the material, across it as the (moving) wall
-              const Vec& n = state.boundary.normal[static_cast<std::size_t>(state.boundary.slot[i])];
-              Vec step;
-              for (int d = 0; d < Dim; ++d) step[d] = state.next_position[d][i] - state.real.position[d][i];
-              step -= (step.dot(n) - 0.5 * dt * n.dot(state.velocity_of(i))) * n;
-              for (int d = 0; d < Dim; ++d) state.next_position[d][i] = state.real.position[d][i] + step[d];
-            }
             for (int d = 0; d < Dim; ++d) {
               const double next = trapezoid ? state.real.position[d][i] + 0.5 * dt * state.real.velocity[d][i]
                                             : state.next_position[d][i];
