@@ -8,6 +8,7 @@
 #pragma once
 
 #include "engine/parallel.hpp"
+#include "engine/solver/boundary/symmetry_planes.hpp"
 #include "engine/solver/state.hpp"
 #include "engine/solver/stencil_evaluation.hpp"
 
@@ -73,12 +74,15 @@ class ConservativeMomentum {
   void apply(SolverState<Dim>& state, double dt, double t_new) {
     const ParticleView<Dim> source = state.virtual_.view();
     parallel_for(state.real.size(), [&](std::size_t i) {
-      if (const std::int32_t b = state.boundary.slot[i]; b >= 0) {
+      const std::int32_t b = state.boundary.slot[i];
+      bool on_own_plane = false;  // a fixed symmetry plane (a moving wall keeps its characteristics)
+      if (b >= 0) {
         const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
         if (condition.kind == BoundaryCondition<Dim>::Kind::velocity) return;
         const Vec traction =
             condition.prescribed(state.initial_position_of(i), state.boundary.profile[static_cast<std::size_t>(b)], t_new);
         if (traction.squaredNorm() > 0.0) return;  // a loaded surface keeps its characteristics
+        on_own_plane = condition.kind == BoundaryCondition<Dim>::Kind::symmetry && state.boundary.on_surface[static_cast<std::size_t>(b)];
       }
       Vec force = Vec::Zero();
       for (std::uint64_t slot = momentum_pair_offsets_[i]; slot < momentum_pair_offsets_[i + 1]; ++slot) {
@@ -88,10 +92,18 @@ class ConservativeMomentum {
           for (int l = 0; l < Dim; ++l)
             force[a] -= source.volume[q] * source.stress[stress_index<Dim>(a, l)][q] * weight[l];
       }
+      Vec velocity;
       for (int d = 0; d < Dim; ++d)
-        state.real.velocity[d][i] = previous_velocity_[d][i] +
-                               dt * (force[d] / state.real.mass[i] + state.settings.body_force[d] -
-                                     state.settings.damping * previous_velocity_[d][i]);
+        velocity[d] = previous_velocity_[d][i] + dt * (force[d] / state.real.mass[i] + state.settings.body_force[d] -
+                                                       state.settings.damping * previous_velocity_[d][i]);
+      // A particle on a fixed symmetry plane keeps v . n = 0 (the plane's reaction is not
+      // among the virtual forces), and one on further planes keeps to them as well.
+      if (b >= 0) {
+        const auto slot = static_cast<std::size_t>(b);
+        if (on_own_plane) velocity -= velocity.dot(state.boundary.normal[slot]) * state.boundary.normal[slot];
+        if (SymmetryPlanes<Dim>::any(state, slot)) SymmetryPlanes<Dim>::project_velocity(state, slot, t_new, velocity);
+      }
+      for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = velocity[d];
     });
   }
 

@@ -39,12 +39,20 @@ struct SymmetryPlanes {
     return w.dot(state.boundary.extra_normal[b][static_cast<std::size_t>(e)]);
   }
 
-  /// Projects a velocity and an in-plane stress onto each further plane of slot b (see
-  /// the file comment).
-  static void project(const SolverState<Dim>& state, std::size_t b, double t, Vec& velocity, Mat& stress) {
+  /// Projects a velocity onto each further plane of slot b: v . m = w . m.
+  static void project_velocity(const SolverState<Dim>& state, std::size_t b, double t, Vec& velocity) {
     for (int e = 0; e < 2 && state.boundary.extra_plane[b][static_cast<std::size_t>(e)] >= 0; ++e) {
       const Vec& m = state.boundary.extra_normal[b][static_cast<std::size_t>(e)];
       velocity -= (velocity.dot(m) - normal_speed(state, b, e, t)) * m;
+    }
+  }
+
+  /// Projects a velocity and an in-plane stress onto each further plane of slot b (see
+  /// the file comment).
+  static void project(const SolverState<Dim>& state, std::size_t b, double t, Vec& velocity, Mat& stress) {
+    project_velocity(state, b, t, velocity);
+    for (int e = 0; e < 2 && state.boundary.extra_plane[b][static_cast<std::size_t>(e)] >= 0; ++e) {
+      const Vec& m = state.boundary.extra_normal[b][static_cast<std::size_t>(e)];
       const Mat projector = Mat::Identity() - m * m.transpose();
       const double normal_stress = m.dot(stress * m);
       stress = projector * stress * projector + normal_stress * (m * m.transpose());
