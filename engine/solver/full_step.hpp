@@ -165,7 +165,7 @@ struct FullStep {
   [[gnu::noinline]] static StressVector<Dim> plastic_stress(SolverState<Dim>& state, std::size_t r,
                                                             const StressUpdate<Dim>& update) {
     const std::int32_t slot = state.boundary.slot[r];
-    const bool replaced = slot >= 0 && state.boundary.on_surface[static_cast<std::size_t>(slot)];
+    const bool replaced = slot >= 0 && state.boundary.on_surface[static_cast<std::size_t>(slot)] && !state.driven();
     return state.update_real_stress(r, update, !replaced);
   }
 

@@ -60,6 +60,9 @@ struct HalfStep {
         state.positions_move() && state.counters.steps % kMaterialPointInterval == 0;
     const bool reference = state.reference_kernel();  // SolverSettings::kernel_configuration
     const PointsView<Dim> target_reference = reference ? initial_points_of<Dim>(state.virtual_) : PointsView<Dim>{};
+    const bool driven = state.driven();  // SolverState::driven_condition
+    const PointsView<Dim> target_initial = driven ? initial_points_of<Dim>(state.virtual_) : PointsView<Dim>{};
+    const double half_time = state.time + half_dt;
     const HalfStepCounts shifts = parallel_for_with_scratch<StepScratch, HalfStepCounts>(
         target.count, [&](std::size_t q, StepScratch& scratch, HalfStepCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
@@ -77,11 +80,16 @@ struct HalfStep {
           const StressVector<Dim> stress =
               plastic ? plastic_stress(state, update, nb, w) : model.update_stress(update);
           for (int m = 0; m < stress_count; ++m) target.stress[m][q] = stress[m];
-          for (int d = 0; d < Dim; ++d)
-            target.velocity[d][q] =
-                s.velocity[d] + half_dt * (s.stress_divergence[d] / s.density +
-                                           state.settings.body_force[d] -
-                                           state.settings.damping * s.velocity[d]);
+          if (driven) {  // the prescribed v^{n+1/2} at the virtual particle's material point
+            const Vec v = state.driven_velocity(target_initial.point(q), half_time);
+            for (int d = 0; d < Dim; ++d) target.velocity[d][q] = v[d];
+          } else {
+            for (int d = 0; d < Dim; ++d)
+              target.velocity[d][q] =
+                  s.velocity[d] + half_dt * (s.stress_divergence[d] / s.density +
+                                             state.settings.body_force[d] -
+                                             state.settings.damping * s.velocity[d]);
+          }
           const double density =
               compressible ? s.density * exp_of_small(-half_dt * s.velocity_gradient.trace()) : s.density;
           target.density[q] = density;

@@ -144,6 +144,16 @@ struct SolverState {
   SolverCounters counters;
   EnergyLedger energy;  ///< SolverSettings::energy_ledger (energy_ledger.hpp)
   double initial_spacing = 0.0;  ///< (mean initial virtual volume)^(1/Dim)
+  /// A driven body: the index of the one velocity condition that every real particle
+  /// carries (the body's whole motion is prescribed: the homogeneous deformations of the
+  /// validation suite), else -1. Then there is no momentum equation left to solve: the
+  /// virtual particles take the prescribed velocity at n+1/2 too (half_step.hpp; their
+  /// own update, v + dt/2 div sigma / rho, fed the stress error of a sheared block's
+  /// corners back into its velocity gradient), and the surface particles are imposed
+  /// like the inner ones, their stress from the full step (characteristics.hpp: the
+  /// relations along a corner's single normal diverged at gamma 2). They stay surface
+  /// particles for the energy ledger (the traction power of the drive).
+  std::int32_t driven_condition = -1;
   SolverLists lists;
   BoundaryParticles<Dim> boundary;
   /// SolverSettings::material_velocity_motion: each real particle's position at n+1,
@@ -167,10 +177,11 @@ struct SolverState {
         !real.carries(real.boundary))
       throw std::invalid_argument("solver: the real set must carry its initial positions, displacements, "
                                   "ids and boundary tags (released optional fields)");
+    driven_condition = find_driven_condition();
     // The virtual initial positions X_v: read by the hourglass stiffness and by the
     // updated-Lagrangian virtual motion (half_step.hpp, place_at_material_point).
     const bool virtual_initial_positions =
-        settings.hourglass_stiffness > 0.0 || settings.keep_virtual_fields || positions_move();
+        settings.hourglass_stiffness > 0.0 || settings.keep_virtual_fields || positions_move() || driven();
     if (settings.keep_virtual_fields
             ? !(virtual_.carries(virtual_.initial_position) && virtual_.carries(virtual_.displacement) &&
                 virtual_.carries(virtual_.id) && virtual_.carries(virtual_.boundary) &&
@@ -204,6 +215,26 @@ struct SolverState {
     const double reference_density = material.elastic().reference_density();
     for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.mass[q] / reference_density;
     initial_spacing = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
+  }
+
+  /// The driven_condition of the real set's boundary tags.
+  std::int32_t find_driven_condition() const {
+    if (real.size() == 0) return -1;
+    const std::int32_t k = real.boundary[0];
+    if (k < 0 || static_cast<std::size_t>(k) >= boundaries.size() ||
+        boundaries[static_cast<std::size_t>(k)].kind != BoundaryCondition<Dim>::Kind::velocity)
+      return -1;
+    for (std::int32_t b : real.boundary)
+      if (b != k) return -1;
+    return k;
+  }
+  /// Whether the whole motion is prescribed (driven_condition).
+  bool driven() const { return driven_condition >= 0; }
+  /// A driven body's prescribed velocity at time t of the material point of initial
+  /// position x0 (virtual or real).
+  Vec driven_velocity(const Vec& x0, double t) const {
+    const BoundaryCondition<Dim>& c = boundaries[static_cast<std::size_t>(driven_condition)];
+    return c.prescribed(x0, c.profile(x0), t);
   }
 
   /// Fills BoundaryParticles::extra_plane from the symmetry conditions' also_on_plane ids.

@@ -87,7 +87,9 @@ struct CharacteristicBoundary {
     for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
       const std::uint32_t i = state.boundary.particle[b];
       const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
-      if (!state.boundary.on_surface[b]) {  // a velocity held inside the body: imposed directly
+      // A velocity held inside the body, or any particle of a driven body
+      // (SolverState::driven_condition): imposed directly, the stress the full step's.
+      if (!state.boundary.on_surface[b] || state.driven()) {
         const Vec v = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
         for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = v[d];
         continue;
