@@ -8,7 +8,10 @@
 //    a velocity held inside the body (a driven region) the work of its overwrite.
 //    A_b = 2 V_b / dx: on the node lattice of tsph (and of its validation cases) a face
 //    particle holds half a cell of volume and a cell face of area (edge and corner
-//    particles their shares). A free surface and a fixed smooth wall do no work.
+//    particles their shares). A free surface and a fixed smooth wall do no work. Where
+//    the velocity is prescribed, the particle's own traction acts on every lattice face
+//    it holds a share of: the power is v . sigma a with the area vector a = J F^-T A0
+//    (BoundaryParticles::face_area carried by the fitted F), exact for affine motions.
 //  * W_body = int b . P dt, W_damping = -c int sum_I m_I |v_I|^2 dt (the full step damps
 //    the interpolated velocity: this is its value where that is the particle's);
 //  * W_hourglass, W_filter: the work of the hourglass stiffness's and of the surface
@@ -167,6 +170,18 @@ class EnergyAccounting {
         if (condition.kind == Kind::symmetry) traction = traction.dot(n) * n;
       }
       const double area = 2.0 * state.real.volume[i] / dx;
+      // A prescribed velocity on the lattice: the drive's power on every face the
+      // particle holds a share of, v . sigma a with a = J F^-T A0 its current area vector
+      // (Nanson; A0 = BoundaryParticles::face_area). Its kernel normal would give an edge
+      // particle a diagonal of half the length, and a face particle next to an edge a
+      // share of the other face (the normals tilt by up to 17 degrees on a 6^3 block).
+      if (condition.kind == Kind::velocity && state.boundary.face_area[b].squaredNorm() > 0.0) {
+        Vec current_area;
+        if (current_area_vector(state, b, current_area)) {
+          power[k] += v.dot(in_plane<Dim>(SolverState<Dim>::stress_of(state.real, i)) * current_area);
+          continue;
+        }
+      }
       power[k] += area * traction.dot(v);
       // Further symmetry planes: their normal traction on the normal velocity (zero on a
       // fixed plane), with the same area model.
@@ -179,6 +194,29 @@ class EnergyAccounting {
   }
 
  private:
+  /// The current area vector a = J F^-T A0 of boundary slot b, with F = dx / dX the
+  /// least-squares fit of the real neighbours' offsets (exact for an affine motion).
+  /// False where the fit is singular.
+  static bool current_area_vector(const SolverState<Dim>& state, std::size_t b, Vec& area) {
+    using Mat = Matrix<Dim>;
+    const std::uint32_t i = state.boundary.particle[b];
+    const Vec x = state.real.position_of(i), x0 = state.initial_position_of(i);
+    Mat reference_moments = Mat::Zero(), mixed = Mat::Zero();
+    for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
+      const Vec dX = state.initial_position_of(j) - x0;
+      const Vec dx = state.real.position_of(j) - x;
+      reference_moments += dX * dX.transpose();
+      mixed += dx * dX.transpose();
+    }
+    const double scale = reference_moments.trace();
+    if (!(scale > 0.0) || !(std::abs(reference_moments.determinant()) > 1e-6 * std::pow(scale / Dim, Dim))) return false;
+    const Mat deformation = mixed * reference_moments.inverse();  // F
+    const double jacobian = deformation.determinant();
+    if (!(jacobian > 0.0)) return false;
+    area = jacobian * deformation.inverse().transpose() * state.boundary.face_area[b];
+    return true;
+  }
+
   static void slot_velocities(const SolverState<Dim>& state, std::vector<Vec>& out) {
     const std::size_t n = state.boundary.particle.size();
     out.resize(n);

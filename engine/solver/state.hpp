@@ -19,6 +19,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <unordered_set>
 #include <vector>
 
 namespace tsph {
@@ -56,6 +57,12 @@ struct BoundaryParticles {
   /// (boundary/normals.hpp).
   std::vector<std::array<std::int32_t, 2>> extra_plane;
   std::vector<std::array<Vec, 2>> extra_normal;
+  /// The particle's area vector in the reference configuration on the node lattice of
+  /// spacing dx: the sum of the outward normals of the lattice faces it holds a share
+  /// of (no real particle at X +- dx e_d), times 2 V0 / dx (its share of each: half a
+  /// cell's volume over half a cell's depth); zero off the lattice
+  /// (SolverState::assign_face_areas; the energy ledger's drive power).
+  std::vector<Vec> face_area;
   /// Per real particle (not per slot): its slot, or -1.
   std::vector<std::int32_t> slot;
 
@@ -66,6 +73,7 @@ struct BoundaryParticles {
     f(particle), f(profile), f(on_surface), f(normal), f(stress), f(velocity), f(density);
     f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
     f(half_velocity), f(stencil_offset), f(gradient_sum), f(full_rank_gradient), f(extra_plane), f(extra_normal);
+    f(face_area);
   }
 
   /// Whether slot b keeps to the plane of symmetry condition k as a further plane.
@@ -215,6 +223,52 @@ struct SolverState {
     const double reference_density = material.elastic().reference_density();
     for (std::size_t q = 0; q < virtual_.size(); ++q) virtual_volume += virtual_.mass[q] / reference_density;
     initial_spacing = std::pow(virtual_volume / static_cast<double>(virtual_.size()), 1.0 / Dim);
+    assign_face_areas();
+  }
+
+  /// Fills BoundaryParticles::face_area from the initial positions and volumes m / rho0.
+  void assign_face_areas() {
+    boundary.face_area.assign(boundary.size(), Vec::Zero());
+    if (boundary.size() == 0 || !(initial_spacing > 0.0)) return;
+    const double dx = initial_spacing;
+    const Vec origin = initial_position_of(0);
+    constexpr std::int64_t kOffset = std::int64_t{1} << 20;
+    auto key_of = [&](const Vec& x, bool& on_lattice) {
+      std::uint64_t key = 0;
+      on_lattice = true;
+      for (int d = 0; d < Dim; ++d) {
+        const double cells = (x[d] - origin[d]) / dx;
+        const double rounded = std::round(cells);
+        if (!(std::abs(cells - rounded) <= 0.05) || !(std::abs(rounded) < static_cast<double>(kOffset))) on_lattice = false;
+        key = (key << 21) | static_cast<std::uint64_t>((on_lattice ? static_cast<std::int64_t>(rounded) : 0) + kOffset);
+      }
+      return key;
+    };
+    std::unordered_set<std::uint64_t> occupied;
+    occupied.reserve(real.size());
+    for (std::size_t i = 0; i < real.size(); ++i) {
+      bool on_lattice = false;
+      const std::uint64_t key = key_of(initial_position_of(i), on_lattice);
+      if (on_lattice) occupied.insert(key);
+    }
+    const double reference_density = material.elastic().reference_density();
+    for (std::size_t b = 0; b < boundary.size(); ++b) {
+      const std::uint32_t i = boundary.particle[b];
+      const Vec x = initial_position_of(i);
+      bool on_lattice = false;
+      key_of(x, on_lattice);
+      if (!on_lattice) continue;
+      Vec normals = Vec::Zero();
+      for (int d = 0; d < Dim; ++d)
+        for (double side : {-1.0, 1.0}) {
+          Vec y = x;
+          y[d] += side * dx;
+          bool inside = false;
+          const std::uint64_t key = key_of(y, inside);
+          if (!inside || !occupied.contains(key)) normals[d] += side;
+        }
+      boundary.face_area[b] = normals * (2.0 * real.mass[i] / reference_density / dx);
+    }
   }
 
   /// The driven_condition of the real set's boundary tags.
