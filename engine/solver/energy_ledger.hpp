@@ -8,10 +8,10 @@
 //    a velocity held inside the body (a driven region) the work of its overwrite.
 //    A_b = 2 V_b / dx: on the node lattice of tsph (and of its validation cases) a face
 //    particle holds half a cell of volume and a cell face of area (edge and corner
-//    particles their shares). A free surface and a fixed smooth wall do no work. Where
-//    the velocity is prescribed, the particle's own traction acts on every lattice face
-//    it holds a share of: the power is v . sigma a with the area vector a = J F^-T A0
-//    (BoundaryParticles::face_area carried by the fitted F), exact for affine motions.
+//    particles their shares). A free surface and a fixed smooth wall do no work. In a
+//    driven body (SolverState::driven_condition) the particle's own traction acts on
+//    every lattice face it holds a share of: the power is v . sigma a with the area
+//    vector a = J F^-T A0 (BoundaryParticles::face_area carried by the fitted F).
 //  * W_body = int b . P dt, W_damping = -c int sum_I m_I |v_I|^2 dt (the full step damps
 //    the interpolated velocity: this is its value where that is the particle's);
 //  * W_hourglass, W_filter: the work of the hourglass stiffness's and of the surface
@@ -30,6 +30,8 @@
 #include "engine/parallel.hpp"
 #include "engine/solver/boundary/normals.hpp"
 #include "engine/solver/state.hpp"
+
+#include <Eigen/Eigenvalues>
 
 #include <array>
 #include <cmath>
@@ -93,7 +95,7 @@ class EnergyAccounting {
       std::vector<double>& copy = start_velocity_[d];
       parallel_for(v.size(), [&](std::size_t i) { copy[i] = v[i]; });
     }
-    traction_power(state, state.time, start_traction_power_);
+    traction_power(state, state.time, 0.0, start_traction_power_);
     overwrite_.clear();
     filter_.clear();
   }
@@ -141,7 +143,9 @@ class EnergyAccounting {
       const std::uint32_t i = state.boundary.particle[s];
       l.surface_filter += r.mass[i] * filter_[s].dot(mean_velocity(i));
     }
-    traction_power(state, state.time + dt, end_traction_power_);
+    // The particles are at the midpoint x^n + dt/2 v^n until Motion::second_half: the
+    // drive's area vectors are fitted at x^{n+1} = x + dt/2 v^{n+1}.
+    traction_power(state, state.time + dt, 0.5 * dt, end_traction_power_);
     for (std::size_t k = 0; k < end_traction_power_.size(); ++k)
       l.boundary[k] += 0.5 * dt * (start_traction_power_[k] + end_traction_power_[k]);
   }
@@ -151,7 +155,9 @@ class EnergyAccounting {
   /// one (zero on a free surface, whatever stress the particle holds: the scheme applies
   /// no other), the particle's own sigma_b n_b where the velocity is prescribed, and its
   /// normal part on a symmetry plane (whose tangential traction is zero).
-  static void traction_power(const SolverState<Dim>& state, double t, std::vector<double>& power) {
+  /// `ahead`: a driven body's area vectors are fitted at x + ahead v (x^{n+1} at the end
+  /// of a step, when the particles still stand at the midpoint).
+  static void traction_power(const SolverState<Dim>& state, double t, double ahead, std::vector<double>& power) {
     power.assign(state.boundaries.size(), 0.0);
     const double dx = state.initial_spacing;
     using Kind = typename BoundaryCondition<Dim>::Kind;
@@ -170,14 +176,16 @@ class EnergyAccounting {
         if (condition.kind == Kind::symmetry) traction = traction.dot(n) * n;
       }
       const double area = 2.0 * state.real.volume[i] / dx;
-      // A prescribed velocity on the lattice: the drive's power on every face the
-      // particle holds a share of, v . sigma a with a = J F^-T A0 its current area vector
-      // (Nanson; A0 = BoundaryParticles::face_area). Its kernel normal would give an edge
-      // particle a diagonal of half the length, and a face particle next to an edge a
-      // share of the other face (the normals tilt by up to 17 degrees on a 6^3 block).
-      if (condition.kind == Kind::velocity && state.boundary.face_area[b].squaredNorm() > 0.0) {
+      // A driven body (SolverState::driven_condition: every face is the drive's) on the
+      // lattice: the drive's power on every face the particle holds a share of,
+      // v . sigma a with a = J F^-T A0 its current area vector (Nanson;
+      // A0 = BoundaryParticles::face_area). Its kernel normal would give an edge particle
+      // a diagonal of half the length, and a face particle next to an edge a share of the
+      // other face (the normals tilt by up to 17 degrees on a 6^3 block). Elsewhere a
+      // velocity face's edge may border a free face, which does no work: the area model.
+      if (state.driven() && state.boundary.face_area[b].squaredNorm() > 0.0) {
         Vec current_area;
-        if (current_area_vector(state, b, current_area)) {
+        if (current_area_vector(state, b, ahead, current_area)) {
           power[k] += v.dot(in_plane<Dim>(SolverState<Dim>::stress_of(state.real, i)) * current_area);
           continue;
         }
@@ -197,19 +205,25 @@ class EnergyAccounting {
   /// The current area vector a = J F^-T A0 of boundary slot b, with F = dx / dX the
   /// least-squares fit of the real neighbours' offsets (exact for an affine motion).
   /// False where the fit is singular.
-  static bool current_area_vector(const SolverState<Dim>& state, std::size_t b, Vec& area) {
+  static bool current_area_vector(const SolverState<Dim>& state, std::size_t b, double ahead, Vec& area) {
     using Mat = Matrix<Dim>;
     const std::uint32_t i = state.boundary.particle[b];
-    const Vec x = state.real.position_of(i), x0 = state.initial_position_of(i);
+    const PointsView<Dim> points = points_of<Dim>(state.real);
+    const Vec x = state.real.position_of(i) + ahead * state.velocity_of(i), x0 = state.initial_position_of(i);
     Mat reference_moments = Mat::Zero(), mixed = Mat::Zero();
     for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
+      // Within 2h only: the pairs a skin adds depend on when the list was searched.
+      if (!state.within_support(points, i, points, j)) continue;
       const Vec dX = state.initial_position_of(j) - x0;
-      const Vec dx = state.real.position_of(j) - x;
+      const Vec dx = state.real.position_of(j) + ahead * state.velocity_of(j) - x;
       reference_moments += dX * dX.transpose();
       mixed += dx * dX.transpose();
     }
-    const double scale = reference_moments.trace();
-    if (!(scale > 0.0) || !(std::abs(reference_moments.determinant()) > 1e-6 * std::pow(scale / Dim, Dim))) return false;
+    // A fit over neighbours that span every direction (the smaller principal moment at
+    // least 1e-3 of the larger; a lattice row has 1/4 or more).
+    const Eigen::SelfAdjointEigenSolver<Mat> moments(reference_moments);
+    const auto& values = moments.eigenvalues();
+    if (!(values[0] > 1e-3 * values[Dim - 1])) return false;
     const Mat deformation = mixed * reference_moments.inverse();  // F
     const double jacobian = deformation.determinant();
     if (!(jacobian > 0.0)) return false;

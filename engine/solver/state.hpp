@@ -160,7 +160,10 @@ struct SolverState {
   /// corners back into its velocity gradient), and the surface particles are imposed
   /// like the inner ones, their stress from the full step (characteristics.hpp: the
   /// relations along a corner's single normal diverged at gamma 2). They stay surface
-  /// particles for the energy ledger (the traction power of the drive).
+  /// particles for the energy ledger (the traction power of the drive). The condition's
+  /// velocity field is then called from the half step's parallel loop: a field given
+  /// through the library (BoundaryCondition::velocity_field) must be thread-safe
+  /// (AffineMotion is: one lock around its cached exponential).
   std::int32_t driven_condition = -1;
   SolverLists lists;
   BoundaryParticles<Dim> boundary;
