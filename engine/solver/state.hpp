@@ -9,6 +9,7 @@
 #include "engine/particle_set.hpp"
 #include "engine/solver/settings.hpp"
 #include "engine/solver/stencil_evaluation.hpp"
+#include "neighbor/cell_list.hpp"
 #include "neighbor/neighbor_list.hpp"
 
 #include <algorithm>
@@ -19,7 +20,6 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
-#include <unordered_set>
 #include <vector>
 
 namespace tsph {
@@ -57,11 +57,9 @@ struct BoundaryParticles {
   /// (boundary/normals.hpp).
   std::vector<std::array<std::int32_t, 2>> extra_plane;
   std::vector<std::array<Vec, 2>> extra_normal;
-  /// The particle's area vector in the reference configuration on the node lattice of
-  /// spacing dx: the sum of the outward normals of the lattice faces it holds a share
-  /// of (no real particle at X +- dx e_d), times 2 V0 / dx (its share of each: half a
-  /// cell's volume over half a cell's depth); zero off the lattice
-  /// (SolverState::assign_face_areas; the energy ledger's drive power).
+  /// A driven body's particle's area vector in the reference configuration: its shares
+  /// of the lattice faces through it, from the cells it touches
+  /// (SolverState::assign_face_areas; the energy ledger's drive power); zero otherwise.
   std::vector<Vec> face_area;
   /// Per real particle (not per slot): its slot, or -1.
   std::vector<std::int32_t> slot;
@@ -229,48 +227,26 @@ struct SolverState {
     assign_face_areas();
   }
 
-  /// Fills BoundaryParticles::face_area from the initial positions and volumes m / rho0.
+  /// Fills BoundaryParticles::face_area, for a driven body only (zero otherwise: the
+  /// ledger reads it there alone). On the node lattice the cells a real node X_i touches
+  /// are its virtual neighbours at sqrt(Dim) dx / 2 (the next ones lie beyond
+  /// sqrt(Dim + 8) dx / 2), and each covers (dx / 2)^(Dim - 1) of the faces through the
+  /// node, so A0 = (dx / 2)^(Dim - 1) sum_c sign(X_i - X_c): zero inside, the outward
+  /// face, edge or corner shares on the surface, re-entrant corners included.
   void assign_face_areas() {
     boundary.face_area.assign(boundary.size(), Vec::Zero());
-    if (boundary.size() == 0 || !(initial_spacing > 0.0)) return;
+    if (!driven() || boundary.size() == 0) return;
     const double dx = initial_spacing;
-    const Vec origin = initial_position_of(0);
-    constexpr std::int64_t kOffset = std::int64_t{1} << 20;
-    auto key_of = [&](const Vec& x, bool& on_lattice) {
-      std::uint64_t key = 0;
-      on_lattice = true;
-      for (int d = 0; d < Dim; ++d) {
-        const double cells = (x[d] - origin[d]) / dx;
-        const double rounded = std::round(cells);
-        if (!(std::abs(cells - rounded) <= 0.05) || !(std::abs(rounded) < static_cast<double>(kOffset))) on_lattice = false;
-        key = (key << 21) | static_cast<std::uint64_t>((on_lattice ? static_cast<std::int64_t>(rounded) : 0) + kOffset);
-      }
-      return key;
-    };
-    std::unordered_set<std::uint64_t> occupied;
-    occupied.reserve(real.size());
-    for (std::size_t i = 0; i < real.size(); ++i) {
-      bool on_lattice = false;
-      const std::uint64_t key = key_of(initial_position_of(i), on_lattice);
-      if (on_lattice) occupied.insert(key);
-    }
-    const double reference_density = material.elastic().reference_density();
+    const PointsView<Dim> nodes = initial_points_of<Dim>(real), cells = initial_points_of<Dim>(virtual_);
+    const NeighborList touching = CellList<Dim>(cells, 0.75 * std::sqrt(double(Dim)) * dx)
+                                      .query_subset(nodes, boundary.particle, /*exclude_self=*/false);
+    const double share = std::pow(0.5 * dx, Dim - 1);
     for (std::size_t b = 0; b < boundary.size(); ++b) {
       const std::uint32_t i = boundary.particle[b];
-      const Vec x = initial_position_of(i);
-      bool on_lattice = false;
-      key_of(x, on_lattice);
-      if (!on_lattice) continue;
-      Vec normals = Vec::Zero();
-      for (int d = 0; d < Dim; ++d)
-        for (double side : {-1.0, 1.0}) {
-          Vec y = x;
-          y[d] += side * dx;
-          bool inside = false;
-          const std::uint64_t key = key_of(y, inside);
-          if (!inside || !occupied.contains(key)) normals[d] += side;
-        }
-      boundary.face_area[b] = normals * (2.0 * real.mass[i] / reference_density / dx);
+      Vec sum = Vec::Zero();
+      for (std::uint32_t c : touching.neighbors(i))
+        for (int d = 0; d < Dim; ++d) sum[d] += nodes.coordinate[d][i] > cells.coordinate[d][c] ? 1.0 : -1.0;
+      boundary.face_area[b] = share * sum;
     }
   }
 
