@@ -25,7 +25,10 @@ struct BoundaryCondition {
   /// symmetry: zero normal velocity and zero tangential traction on a plane (a roller,
   /// a frictionless rigid wall; issue 16), the plane's normal the particles' face normal;
   /// with a velocity, a smooth wall moving with it (its normal part imposed: a footing).
-  enum class Kind { velocity, traction, symmetry };
+  /// mirror: a plane the solution is symmetric about (a quarter model's cut), modelled
+  /// by ghost particles, the owned particles' images across it
+  /// (solver/boundary/mirror_planes.hpp); no particle carries it.
+  enum class Kind { velocity, traction, symmetry, mirror };
   using Profile = std::function<Vector<Dim>(const Vector<Dim>&)>;
 
   Kind kind = Kind::traction;
@@ -40,6 +43,10 @@ struct BoundaryCondition {
   /// this plane as well (solver/boundary/symmetry_planes.hpp): a quarter model's axis
   /// lies on two planes, its corner on three.
   std::vector<std::uint32_t> also_on_plane;
+  /// Mirror conditions only: a point of the plane and its unit normal, pointing out of
+  /// the body (the body lies on the side (x - point) . normal <= 0).
+  Vector<Dim> plane_point = Vector<Dim>::Zero();
+  Vector<Dim> plane_normal = Vector<Dim>::Zero();
 
   /// The prescribed vector at a particle of initial position x0, with profile(x0) given.
   Vector<Dim> prescribed(const Vector<Dim>& x0, const Vector<Dim>& profile_at_x0, double t) const {
@@ -75,6 +82,15 @@ struct BoundaryCondition {
   static BoundaryCondition symmetry(std::string name, std::array<TimeFunction, Dim> components =
                                                           filled(TimeFunction::constant(0.0))) {
     return {Kind::symmetry, std::move(components), uniform(), std::move(name), {}, {}};
+  }
+  /// A fixed plane of mirror symmetry through `point` with outward normal `normal`
+  /// (normalised here).
+  static BoundaryCondition mirror(std::string name, const Vector<Dim>& point, const Vector<Dim>& normal) {
+    BoundaryCondition c = symmetry(std::move(name));
+    c.kind = Kind::mirror;
+    c.plane_point = point;
+    c.plane_normal = normal.normalized();
+    return c;
   }
   /// Zero traction.
   static BoundaryCondition free(std::string name) {

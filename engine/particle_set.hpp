@@ -103,15 +103,41 @@ class ParticleSet {
 
   static constexpr std::int32_t kNoBoundary = -1;
 
-  std::size_t size() const { return mass.size(); }
+  /// The particles of the set (the owned ones: ghosts, when attached, are not counted).
+  std::size_t size() const { return mass.size() - ghost_count_; }
+  /// Mirror ghosts (engine/solver/boundary/mirror_planes.hpp): images of owned particles
+  /// across a mirror plane, held behind the owned ones in every carried field while a
+  /// step runs, so that a neighbour list may index them like any source particle.
+  /// Loops over size() never see them; storage_size() counts both.
+  std::size_t ghost_count() const { return ghost_count_; }
+  std::size_t storage_size() const { return mass.size(); }
+  /// Appends `count` ghost slots behind the owned particles in every carried field
+  /// (values unset: the caller fills them), replacing the ghosts held.
+  void attach_ghosts(std::size_t count) {
+    detach_ghosts();
+    const std::size_t n = size();
+    for_each_field([&](auto& field) {
+      if (!field.empty()) field.resize(n + count);
+    });
+    ghost_count_ = count;
+  }
+  /// Drops the ghosts (the owned particles are untouched).
+  void detach_ghosts() {
+    if (ghost_count_ == 0) return;
+    const std::size_t n = size();
+    for_each_field([&](auto& field) {
+      if (!field.empty()) field.resize(n);
+    });
+    ghost_count_ = 0;
+  }
 
   /// Whether the set holds the optional field `field` (one of initial_position,
   /// displacement, id, boundary, group, or a component of them): every other field is
   /// always held; an optional one is either held for every particle or released (empty).
   template <class Field>
   bool carries(const Field& field) const {
-    if constexpr (requires { field[0].size(); }) return field[0].size() == size();
-    else return field.size() == size();
+    if constexpr (requires { field[0].size(); }) return field[0].size() == storage_size();
+    else return field.size() == storage_size();
   }
 
   /// Releases the optional fields a stepper does not read for this set (memory: the
@@ -131,10 +157,11 @@ class ParticleSet {
   }
 
   /// Whether the set holds the plastic models' internal variables.
-  bool carries_plastic_fields() const { return plastic_strain.size() == size() && size() > 0; }
+  bool carries_plastic_fields() const { return plastic_strain.size() == storage_size() && size() > 0; }
   /// Allocates the plastic fields (zero; the temperature at `temperature0`) unless held.
   void carry_plastic_fields(double temperature0) {
     if (carries_plastic_fields()) return;
+    detach_ghosts();
     const std::size_t n = size();
     plastic_strain.assign(n, 0.0);
     plastic_work.assign(n, 0.0);
@@ -154,7 +181,7 @@ class ParticleSet {
   /// Throws std::invalid_argument (naming `who`) unless every field holds size()
   /// values, the optional ones size() or none (released).
   void check_field_sizes(const std::string& who) {
-    const std::size_t n = size();
+    const std::size_t n = storage_size();
     std::size_t index = 0;
     for_each_field([&](auto& field) {
       const bool optional = is_optional_field(field);
@@ -188,8 +215,9 @@ class ParticleSet {
   }
 
   /// Resizes every field; new particles are zeroed, ids numbered, unbounded. Optional
-  /// fields released from a non-empty set stay released.
+  /// fields released from a non-empty set stay released. Ghosts are dropped first.
   void resize(std::size_t n) {
+    detach_ghosts();
     const std::size_t old = size();
     for_each_field([&](auto& field) {
       if ((old == 0 && !is_on_demand_field(field)) || !field.empty()) field.resize(n);
@@ -199,8 +227,9 @@ class ParticleSet {
   }
 
   /// Reorders every field so that new particle i is old particle order[i] (released
-  /// optional fields stay released).
+  /// optional fields stay released). Ghosts are dropped first.
   void permute(const std::vector<std::uint32_t>& order) {
+    detach_ghosts();
     require_permutation(order, size(), "ParticleSet::permute");
     for_each_field([&order](auto& field) {
       if (field.empty()) return;  // released, or no particles
@@ -249,6 +278,8 @@ class ParticleSet {
       if (f == &a) return true;
     return f == &plastic_strain || f == &plastic_work || f == &temperature || f == &yielding;
   }
+
+  std::size_t ghost_count_ = 0;
 };
 
 }  // namespace tsph

@@ -117,16 +117,17 @@ class TaylorSph {
   std::vector<std::uint32_t> free_edge_particles() const;
 
   /// Kinetic energy sum_I m_I |v_I|^2 / 2 of the real particles (the same bits on any
-  /// thread count: energy_ledger.hpp).
+  /// thread count; with mirror planes, of the modelled part: energy_ledger.hpp).
   double kinetic_energy() const { return EnergyAccounting<Dim>::kinetic(state_); }
   /// Strain energy sum_I V_I w(sigma_I) of the real particles.
   double strain_energy() const { return EnergyAccounting<Dim>::elastic(state_); }
-  /// Linear momentum sum_I m_I v_I of the real particles.
+  /// Linear momentum sum_I m_I v_I of the real particles (with mirror planes, of the
+  /// modelled part: SolverState::share).
   Vec linear_momentum() const {
     Vec p = Vec::Zero();
     const ParticleSet<Dim>& real = state_.real;
     for (std::size_t i = 0; i < real.size(); ++i)
-      for (int d = 0; d < Dim; ++d) p[d] += real.mass[i] * real.velocity[d][i];
+      for (int d = 0; d < Dim; ++d) p[d] += state_.share(i) * real.mass[i] * real.velocity[d][i];
     return p;
   }
 
@@ -158,6 +159,7 @@ TaylorSph<Dim>::TaylorSph(ParticleSet<Dim> real, ParticleSet<Dim> virtual_partic
     : state_(std::move(real), std::move(virtual_particles), std::move(material), std::move(settings),
              std::move(boundaries)) {
   NeighborLists<Dim>::rebuild(state_);
+  MirrorPlanes<Dim>::detach(state_);  // between steps the sets hold their own particles
 }
 template <int Dim>
 void TaylorSph<Dim>::step(double dt) {
@@ -176,21 +178,33 @@ void TaylorSph<Dim>::advance_fields(double dt) {
   const double t_new = state_.time + dt;
   visit_stages([&](const auto& kernel, const auto& model) {
     const bool ledger = settings.energy_ledger;
+    // Mirror planes: the particles on a plane keep to it, and the ghosts are attached
+    // for the step (refreshed after each stage whose output a later one reads through
+    // the lists; detached at the end of advance_positions).
+    MirrorPlanes<Dim>::project_on_planes(state_);
+    MirrorPlanes<Dim>::attach(state_);
     if (ledger) energy_.begin(state_);
     CharacteristicBoundary<Dim>::gradients_at_n(state_, kernel);  // grad U^n at the boundary
     HalfStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (3): real -> virtual
-    Motion<Dim>::first_half(state_, dt);                            // to x^{n+1/2} (or u += dt/2 v^n)
+    Motion<Dim>::first_half(state_, dt);                            // to x^{n+1/2} (or u += dt/2 v^n); ghosts refreshed
     // The weak form's weights in the configuration the full step evaluates in (the
     // midpoint in updated Lagrangian): its forces exert no torque about it, and the
     // spin is kept (docs/notes/2026-11-26-rotation-drift.md; at x^n it grew by
     // omega^2 dt^2 / 2 per step).
     if (settings.conservative_momentum) momentum_.store_weights(state_, kernel);
     FullStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (4): virtual -> real
+    MirrorPlanes<Dim>::refresh_real(state_);
     if (ledger) energy_.before_boundary_stage(state_);
     CharacteristicBoundary<Dim>::apply(state_, model, dt, t_new);   // boundary state at n+1
     if (settings.conservative_momentum) momentum_.apply(state_, dt, t_new);
     if (ledger) energy_.after_boundary_stage(state_, /*overwrite=*/true);  // the slots' change
-    if (settings.hourglass_stiffness > 0.0) hourglass_stiffness_.apply(state_, kernel, dt);
+    MirrorPlanes<Dim>::project_on_planes(state_);
+    MirrorPlanes<Dim>::refresh_real(state_);
+    if (settings.hourglass_stiffness > 0.0) {
+      hourglass_stiffness_.apply(state_, kernel, dt);
+      MirrorPlanes<Dim>::project_on_planes(state_);
+      MirrorPlanes<Dim>::refresh_real(state_);
+    }
     if (settings.hourglass_coefficient > 0.0) {
       if (ledger) energy_.before_boundary_stage(state_);
       surface_filter_.apply(state_, kernel);
@@ -207,20 +221,27 @@ void TaylorSph<Dim>::check_stability(double dt) {
 
 template <int Dim>
 void TaylorSph<Dim>::advance_positions(double dt) {
+  MirrorPlanes<Dim>::attach(state_);  // no-op after advance_fields (attached)
   Motion<Dim>::second_half(state_, dt);
+  MirrorPlanes<Dim>::detach(state_);
 }
 
 template <int Dim>
 void TaylorSph<Dim>::half_step(double dt) {
+  MirrorPlanes<Dim>::attach(state_);
   visit_stages([&](const auto& kernel, const auto& model) { HalfStep<Dim>::apply(state_, kernel, model, dt); });
+  MirrorPlanes<Dim>::detach(state_);
 }
 template <int Dim>
 void TaylorSph<Dim>::full_step(double dt) {
+  MirrorPlanes<Dim>::attach(state_);
   visit_stages([&](const auto& kernel, const auto& model) { FullStep<Dim>::apply(state_, kernel, model, dt); });
+  MirrorPlanes<Dim>::detach(state_);
 }
 template <int Dim>
 void TaylorSph<Dim>::rebuild_neighbors() {
   NeighborLists<Dim>::rebuild(state_);
+  MirrorPlanes<Dim>::detach(state_);
 }
 
 template <int Dim>
@@ -231,6 +252,7 @@ void TaylorSph<Dim>::permute_particles(const std::vector<std::uint32_t>& real_or
   require_permutation(virtual_order, state_.virtual_.size(), "solver: permute_particles: the virtual order");
   NeighborLists<Dim>::permute(state_, real_order, virtual_order);
   NeighborLists<Dim>::build(state_);
+  MirrorPlanes<Dim>::detach(state_);
   state_.lists.sorted_spread = -1.0;  // the sorted order's spread, measured again at the next rebuild
 }
 

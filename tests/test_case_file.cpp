@@ -198,7 +198,7 @@ TEST_F(CaseFileTest, WrongTypeOutOfRangeAndMissingKeys) {
   e = error_of(replaced(kValid2d, "upper = [1.0, 0.4]", "upper = [1.0, 0.45]"));
   EXPECT_NE(e.find("whole number"), std::string::npos) << e;
   e = error_of(replaced(kValid2d, "type = \"fixed\"", "type = \"fixd\""));
-  EXPECT_NE(e.find("boundary[0].type = 'fixd' is invalid: must be one of: fixed, free, velocity, traction, symmetry (did you mean 'fixed'?)"),
+  EXPECT_NE(e.find("boundary[0].type = 'fixd' is invalid: must be one of: fixed, free, velocity, traction, symmetry, mirror (did you mean 'fixed'?)"),
             std::string::npos) << e;
   e = error_of(replaced(kValid2d, "dimension = 2", "dimension = 4"));
   EXPECT_NE(e.find("dimension = 4 is invalid: must be 1, 2 or 3"), std::string::npos) << e;

@@ -207,6 +207,24 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
                      " is filled by real particles, so there are no virtual particles: check "
                      "geometry.spacing against the particle file"});
 
+  // A particle on a mirror plane is inside the mirrored body: the lattice (or a particle
+  // file cut at the plane, as `tsph validate` writes the quarter Taylor bar) gives it the
+  // modelled part's share of its volume, half per plane; it carries the whole.
+  std::vector<std::size_t> on_mirror(c.boundaries.size(), 0);  // reported as the plane's particles
+  for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
+    const BoundarySpec& s = c.boundaries[k];
+    if (s.type != "mirror" || s.regions.size() != 1) continue;
+    const Vec point = to_vector<Dim>(s.regions[0].point), normal = to_vector<Dim>(s.regions[0].normal).normalized();
+    for (std::size_t i = 0; i < b.real.size(); ++i) {
+      Vec x0;
+      for (int d = 0; d < Dim; ++d) x0[d] = b.real.initial_position[d][i];
+      if (std::abs((x0 - point).dot(normal)) > 1e-6 * dx) continue;
+      b.real.volume[i] *= 2.0;
+      b.real.mass[i] *= 2.0;
+      ++on_mirror[k];
+    }
+  }
+
   // Initial conditions: v = v0 + G x0 (G row by row), uniform stress, added to the
   // particle file's values.
   const Vec v0 = to_vector<Dim>(c.initial_velocity);
@@ -255,6 +273,13 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
     if (s.type == "fixed") b.conditions.push_back(BoundaryCondition<Dim>::fixed(s.name));
     else if (s.type == "free") b.conditions.push_back(BoundaryCondition<Dim>::free(s.name));
     else if (s.type == "symmetry") b.conditions.push_back(BoundaryCondition<Dim>::symmetry(s.name, components));
+    else if (s.type == "mirror") {
+      // No particle carries it: its ghosts model it (engine/solver/boundary/mirror_planes.hpp).
+      b.conditions.push_back(BoundaryCondition<Dim>::mirror(s.name, to_vector<Dim>(s.regions[0].point),
+                                                            to_vector<Dim>(s.regions[0].normal)));
+      regions_of[k].clear();
+      continue;
+    }
     else if (s.type == "velocity" && !s.velocity_gradient.empty()) {
       // v = value + G x along the exact affine motion (engine/affine_motion.hpp).
       Matrix<Dim> g;
@@ -324,7 +349,9 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   for (std::size_t k = 0; k < c.boundaries.size(); ++k)
     b.boundary_counts.emplace_back(
         c.boundaries[k].name,
-        static_cast<std::size_t>(std::count(b.real.boundary.begin(), b.real.boundary.end(), static_cast<std::int32_t>(k))));
+        c.boundaries[k].type == "mirror"
+            ? on_mirror[k]
+            : static_cast<std::size_t>(std::count(b.real.boundary.begin(), b.real.boundary.end(), static_cast<std::int32_t>(k))));
 
   b.settings.smoothing_length = c.alpha * dx;
   b.settings.kernel = c.kernel;

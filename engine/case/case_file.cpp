@@ -361,7 +361,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
   for (Table b : top.tables("boundary")) {
     BoundarySpec s;
     s.name = b.text("name", true).value_or("");
-    s.type = b.text("type", true, {"fixed", "free", "velocity", "traction", "symmetry"}).value_or("");
+    s.type = b.text("type", true, {"fixed", "free", "velocity", "traction", "symmetry", "mirror"}).value_or("");
     if (b.has("region") && b.get("region", false, "")->is_array()) {
       // A list of regions: their union.
       for (Table r : b.tables("region")) s.regions.push_back(read_region(r, dim));
@@ -401,6 +401,10 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
                           "cannot be combined with profile = \"" + s.profile + "\"");
       }
     }
+    if (s.type == "mirror" && !(s.regions.size() == 1 && s.regions[0].type == "half_space"))
+      context.invalid(b.get("region", false, ""), b.path("region"),
+                      "a mirror plane is one half_space region (its point on the plane, its normal out of the "
+                      "body): region = { type = \"half_space\", point = [...], normal = [...] }");
     const bool by_group = std::any_of(s.regions.begin(), s.regions.end(),
                                       [](const RegionSpec& r) { return r.type == "group"; });
     if (by_group && c.particle_file.empty())

@@ -23,6 +23,9 @@
 // against a one-sided stress gradient) the two differ, and the difference is part of
 // the scheme's error, with the Taylor expansion's own dissipation (alpha) and the
 // stress-side updates of the boundary stages.
+// With mirror planes (boundary/mirror_planes.hpp) a particle on a plane counts for its
+// share of the modelled part, 1/2 per plane (SolverState::share): every sum is then the
+// whole mirrored body's divided by 2 per plane (a quarter model: the whole bar's / 4).
 // The sums run in fixed blocks (deterministic_sum) and the boundary slots serially: the
 // ledger has the same bits on any thread count and after a restart.
 #pragma once
@@ -59,7 +62,7 @@ class EnergyAccounting {
     return deterministic_sum(r.size(), [&](std::size_t i) {
       double v2 = 0.0;
       for (int d = 0; d < Dim; ++d) v2 += r.velocity[d][i] * r.velocity[d][i];
-      return 0.5 * r.mass[i] * v2;
+      return 0.5 * state.share(i) * r.mass[i] * v2;
     });
   }
   /// Elastic energy sum_I V_I w(sigma_I).
@@ -68,7 +71,7 @@ class EnergyAccounting {
     double e = 0.0;
     state.material.visit([&](const auto& model) {
       e = deterministic_sum(r.size(), [&](std::size_t i) {
-        return r.volume[i] * model.strain_energy_density(SolverState<Dim>::stress_of(r, i));
+        return state.share(i) * r.volume[i] * model.strain_energy_density(SolverState<Dim>::stress_of(r, i));
       });
     });
     return e;
@@ -77,7 +80,7 @@ class EnergyAccounting {
   static double plastic_work(const SolverState<Dim>& state) {
     const ParticleSet<Dim>& r = state.real;
     if (!r.carries_plastic_fields()) return 0.0;
-    return deterministic_sum(r.size(), [&](std::size_t i) { return r.volume[i] * r.plastic_work[i]; });
+    return deterministic_sum(r.size(), [&](std::size_t i) { return state.share(i) * r.volume[i] * r.plastic_work[i]; });
   }
   /// kinetic + elastic + plastic work.
   static double mechanical(const SolverState<Dim>& state) {
@@ -93,7 +96,7 @@ class EnergyAccounting {
       start_velocity_[d].resize(state.real.size());
       const std::vector<double>& v = state.real.velocity[d];
       std::vector<double>& copy = start_velocity_[d];
-      parallel_for(v.size(), [&](std::size_t i) { copy[i] = v[i]; });
+      parallel_for(copy.size(), [&](std::size_t i) { copy[i] = v[i]; });
     }
     traction_power(state, state.time, 0.0, start_traction_power_);
     overwrite_.clear();
@@ -122,26 +125,26 @@ class EnergyAccounting {
     const Vec& b = state.settings.body_force;
     const double c = state.settings.damping;
     if (b.squaredNorm() > 0.0)  // int b . P dt, P = sum m v at the step's middle
-      l.body_force += dt * deterministic_sum(r.size(), [&](std::size_t i) { return r.mass[i] * b.dot(mean_velocity(i)); });
+      l.body_force += dt * deterministic_sum(r.size(), [&](std::size_t i) { return state.share(i) * r.mass[i] * b.dot(mean_velocity(i)); });
     if (c > 0.0)
       l.damping -= c * dt * deterministic_sum(r.size(), [&](std::size_t i) {
-        return r.mass[i] * mean_velocity(i).squaredNorm();
+        return state.share(i) * r.mass[i] * mean_velocity(i).squaredNorm();
       });
     if (!hourglass_kicks.empty())
       l.hourglass += deterministic_sum(r.size(), [&](std::size_t i) {
-        return r.mass[i] * hourglass_kicks[i].dot(mean_velocity(i));
+        return state.share(i) * r.mass[i] * hourglass_kicks[i].dot(mean_velocity(i));
       });
     // The overwrite of a velocity held inside the body (no surface, no traction) is the
     // constraint's work: its condition's; on a surface it is booked apart.
     for (std::size_t s = 0; s < overwrite_.size(); ++s) {
       const std::uint32_t i = state.boundary.particle[s];
-      const double w = r.mass[i] * overwrite_[s].dot(mean_velocity(i));
+      const double w = state.share(i) * r.mass[i] * overwrite_[s].dot(mean_velocity(i));
       if (state.boundary.on_surface[s]) l.boundary_overwrite += w;
       else l.boundary[static_cast<std::size_t>(state.real.boundary[i])] += w;
     }
     for (std::size_t s = 0; s < filter_.size(); ++s) {
       const std::uint32_t i = state.boundary.particle[s];
-      l.surface_filter += r.mass[i] * filter_[s].dot(mean_velocity(i));
+      l.surface_filter += state.share(i) * r.mass[i] * filter_[s].dot(mean_velocity(i));
     }
     // The particles are at the midpoint x^n + dt/2 v^n until Motion::second_half: the
     // drive's area vectors are fitted at x^{n+1} = x + dt/2 v^{n+1}.
@@ -175,7 +178,7 @@ class EnergyAccounting {
         traction = in_plane<Dim>(SolverState<Dim>::stress_of(state.real, i)) * n;
         if (condition.kind == Kind::symmetry) traction = traction.dot(n) * n;
       }
-      const double area = 2.0 * state.real.volume[i] / dx;
+      const double area = 2.0 * state.share(i) * state.real.volume[i] / dx;
       // A driven body (SolverState::driven_condition: every face is the drive's) on the
       // lattice: the drive's power on every face the particle holds a share of,
       // v . sigma a with a = J F^-T A0 its current area vector (Nanson;

@@ -190,7 +190,8 @@ struct FullStep {
     if (b >= 0 && state.lists.real_from_real.query_count() > r) {
       row.assign(own.neighbors(r).begin(), own.neighbors(r).end());
       for (const std::uint32_t j : state.lists.real_from_real.neighbors(r))
-        row.insert(row.end(), own.neighbors(j).begin(), own.neighbors(j).end());
+        if (j < own.query_count())  // a mirror ghost has no row (its images' virtual ghosts are not indexed)
+          row.insert(row.end(), own.neighbors(j).begin(), own.neighbors(j).end());
       std::sort(row.begin(), row.end());
       row.erase(std::unique(row.begin(), row.end()), row.end());
       for (const double factor : {1.5, 2.0}) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "engine/parallel.hpp"
+#include "engine/solver/boundary/mirror_planes.hpp"
 #include "engine/solver/boundary/normals.hpp"
 #include "engine/solver/state.hpp"
 #include "neighbor/neighbor_search.hpp"
@@ -33,11 +34,16 @@ struct NeighborLists {
   static void search(SolverState<Dim>& state) {
     const double radius = state.list_radius();
     const bool skin = state.skin_distance() > 0.0;
+    MirrorPlanes<Dim>::generate(state);  // mirror planes: the ghosts, sources like the owned particles
     // With the reference kernel the pairs are those within 2h at X, for the whole run.
     const bool reference = state.reference_kernel();
     const PointsView<Dim> real_points = reference ? initial_points_of<Dim>(state.real) : points_of<Dim>(state.real);
     const PointsView<Dim> virtual_points =
         reference ? initial_points_of<Dim>(state.virtual_) : points_of<Dim>(state.virtual_);
+    // Rows for the owned particles only (a ghost is never a target).
+    PointsView<Dim> real_rows = real_points, virtual_rows = virtual_points;
+    real_rows.count = state.real.size();
+    virtual_rows.count = state.virtual_.size();
     // The old lists are released first, so that two generations never coexist (memory).
     state.lists.virtual_from_real = NeighborList{};
     state.lists.real_from_virtual = NeighborList{};
@@ -45,16 +51,18 @@ struct NeighborLists {
     {
       const NeighborSearcher<Dim> real_search(state.settings.neighbor_search, real_points, radius);
       state.lists.search_used = real_search.kind();
-      state.lists.virtual_from_real = real_search.query(virtual_points);
+      state.lists.virtual_from_real = real_search.query(virtual_rows);
       // Same-set rows only where they are used: the boundary particles (rows of the other
       // real particles are empty, so the list is still indexed by real particle).
-      state.lists.real_from_real = real_search.query_subset(real_points, state.boundary.particle, true);
+      state.lists.real_from_real = real_search.query_subset(real_rows, state.boundary.particle, true);
     }
+    // The transpose of virtual_from_real lacks the virtual ghosts: with mirror planes the
+    // full step's list is searched.
     if (!state.lists_used_once())
       state.lists.real_from_virtual =
-          state.settings.transpose_lists || skin
+          (state.settings.transpose_lists || skin) && !state.mirror.active()
               ? transpose(state.lists.virtual_from_real, state.real.size())
-              : NeighborSearcher<Dim>(state.settings.neighbor_search, virtual_points, radius).query(real_points);
+              : NeighborSearcher<Dim>(state.settings.neighbor_search, virtual_points, radius).query(real_rows);
     state.lists.real_path_bound = 0.0;  // the lists hold the pairs within state.list_radius() from here on
     state.lists.virtual_path_bound = 0.0;
     ++state.counters.neighbor_builds;
@@ -67,14 +75,16 @@ struct NeighborLists {
   static void prepare_full_step(SolverState<Dim>& state) {
     if (!state.lists_used_once()) return;
     state.lists.real_from_virtual = NeighborList{};
-    if (state.settings.transpose_lists) {
+    if (state.settings.transpose_lists && !state.mirror.active()) {
       state.lists.real_from_virtual = transpose(state.lists.virtual_from_real, state.real.size());
       state.lists.virtual_from_real = NeighborList{};
     } else {
       state.lists.virtual_from_real = NeighborList{};
+      PointsView<Dim> real_rows = points_of<Dim>(state.real);
+      real_rows.count = state.real.size();
       state.lists.real_from_virtual =
           NeighborSearcher<Dim>(state.settings.neighbor_search, points_of<Dim>(state.virtual_), state.support_radius())
-              .query(points_of<Dim>(state.real));
+              .query(real_rows);
     }
   }
 
@@ -140,32 +150,36 @@ struct NeighborLists {
   static void rebuild(SolverState<Dim>& state) {
     build(state);
     if (state.settings.spatial_order == SpatialOrder::none) return;
-    const double spread = mean_row_spread(state.lists.virtual_from_real, nullptr);
+    const double spread = mean_row_spread(state.lists.virtual_from_real, nullptr, state.real.size());
     if (state.lists.sorted_spread < 0.0) {
       // First build: the spread the sorted order would have, from the ranks of the
       // sorted order applied to the current list.
       const std::vector<std::uint32_t> order = order_of(state, state.real);
       std::vector<std::uint32_t> rank(order.size());
       for (std::size_t k = 0; k < order.size(); ++k) rank[order[k]] = static_cast<std::uint32_t>(k);
-      state.lists.sorted_spread = mean_row_spread(state.lists.virtual_from_real, rank.data());
+      state.lists.sorted_spread = mean_row_spread(state.lists.virtual_from_real, rank.data(), state.real.size());
     }
     if (!(spread > state.settings.reorder_threshold * std::max(state.lists.sorted_spread, 1.0))) return;
     sort_particles(state);
     build(state);
-    state.lists.sorted_spread = mean_row_spread(state.lists.virtual_from_real, nullptr);
+    state.lists.sorted_spread = mean_row_spread(state.lists.virtual_from_real, nullptr, state.real.size());
   }
 
   /// Mean over the rows of `list` of the spread (last - first) of their entries, or of
   /// their ranks rank[j] if given: how far apart in memory one stencil's sources lie.
-  static double mean_row_spread(const NeighborList& list, const std::uint32_t* rank) {
+  /// Entries from `owned` on (mirror ghosts, held behind the owned particles) are left out.
+  static double mean_row_spread(const NeighborList& list, const std::uint32_t* rank,
+                                std::size_t owned = UINT32_MAX) {
     std::uint64_t total = 0;  // an integer sum: exact, whatever the order
     std::size_t rows = 0;
     for (std::size_t i = 0; i < list.query_count(); ++i) {
-      const auto row = list.neighbors(i);
+      auto row = list.neighbors(i);
+      // Rows are sorted: the owned entries come first.
+      row = row.first(static_cast<std::size_t>(std::lower_bound(row.begin(), row.end(), owned) - row.begin()));
       if (row.empty()) continue;
       ++rows;
       if (!rank) {
-        total += row.back() - row.front();  // rows are sorted
+        total += row.back() - row.front();
         continue;
       }
       std::uint32_t low = UINT32_MAX, high = 0;
@@ -176,7 +190,9 @@ struct NeighborLists {
   }
 
   static std::vector<std::uint32_t> order_of(const SolverState<Dim>& state, const ParticleSet<Dim>& set) {
-    return spatial_order<Dim>(state.settings.spatial_order, points_of<Dim>(set), 0.25 * state.support_radius());
+    PointsView<Dim> owned = points_of<Dim>(set);
+    owned.count = set.size();
+    return spatial_order<Dim>(state.settings.spatial_order, owned, 0.25 * state.support_radius());
   }
 
   /// Sorts both sets into SolverSettings::spatial_order (permute).
@@ -193,6 +209,7 @@ struct NeighborLists {
   /// caller builds the lists again.
   static void permute(SolverState<Dim>& state, const std::vector<std::uint32_t>& real_order,
                       const std::vector<std::uint32_t>& virtual_order) {
+    MirrorPlanes<Dim>::detach(state);  // the build that follows makes them again
     state.real.permute(real_order);
     state.virtual_.permute(virtual_order);
     std::vector<std::uint32_t> new_index(real_order.size());

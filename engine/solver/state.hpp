@@ -135,6 +135,58 @@ struct SolverLists {
   bool surface_decided = false;  ///< BoundaryParticles::on_surface set (at the first build)
 };
 
+/// Mirror planes (BoundaryCondition::Kind::mirror) and their ghost particles
+/// (solver/boundary/mirror_planes.hpp): which owned particle each ghost images, across
+/// which planes, per set; and the owned real particles on a plane.
+template <int Dim>
+struct MirrorGhosts {
+  using Vec = Vector<Dim>;
+  struct Plane {
+    Vec point;
+    Vec normal;  ///< unit, out of the body
+    std::size_t condition = 0;
+  };
+  struct Images {
+    std::vector<std::uint32_t> source;  ///< per ghost: the owned particle it images
+    std::vector<std::uint8_t> planes;   ///< per ghost: bit k set = reflected across planes[k]
+  };
+  std::vector<Plane> planes;
+  Images real, virtual_;
+  std::vector<std::uint32_t> on_plane;      ///< owned real particles on a plane (initial position)
+  std::vector<std::uint8_t> on_plane_mask;  ///< their planes (bits as above)
+  /// Per owned real particle (empty without planes): its share of the modelled part,
+  /// 1/2 per plane it lies on (SolverState::share; the energy ledger's sums).
+  std::vector<double> share;
+  /// Whether the case has a mirror plane.
+  bool active() const { return !planes.empty(); }
+
+  /// x reflected across the planes of `mask` (the planes are pairwise orthogonal or
+  /// parallel: the order does not matter for those a particle is imaged across).
+  Vec reflect_point(std::uint8_t mask, Vec x) const {
+    for (std::size_t k = 0; k < planes.size(); ++k)
+      if (mask >> k & 1u) x -= 2.0 * (x - planes[k].point).dot(planes[k].normal) * planes[k].normal;
+    return x;
+  }
+  /// A vector (velocity, displacement) reflected: v - 2 (v . m) m per plane.
+  Vec reflect_direction(std::uint8_t mask, Vec v) const {
+    for (std::size_t k = 0; k < planes.size(); ++k)
+      if (mask >> k & 1u) v -= 2.0 * v.dot(planes[k].normal) * planes[k].normal;
+    return v;
+  }
+  /// A stress (3 x 3, the out-of-plane components of 2D included) reflected: R s R,
+  /// R = I - 2 m m^T per plane.
+  Eigen::Matrix3d reflect_tensor(std::uint8_t mask, Eigen::Matrix3d s) const {
+    for (std::size_t k = 0; k < planes.size(); ++k)
+      if (mask >> k & 1u) {
+        Eigen::Vector3d m = Eigen::Vector3d::Zero();
+        m.template head<Dim>() = planes[k].normal;
+        const Eigen::Matrix3d r = Eigen::Matrix3d::Identity() - 2.0 * m * m.transpose();
+        s = r * s * r;
+      }
+    return s;
+  }
+};
+
 template <int Dim>
 struct SolverState {
   using Vec = Vector<Dim>;
@@ -165,6 +217,9 @@ struct SolverState {
   std::int32_t driven_condition = -1;
   SolverLists lists;
   BoundaryParticles<Dim> boundary;
+  /// The mirror planes and their ghosts (solver/boundary/mirror_planes.hpp); inactive
+  /// without a mirror condition.
+  MirrorGhosts<Dim> mirror;
   /// SolverSettings::material_velocity_motion: each real particle's position at n+1,
   /// written by the full step (NaN: none, the trapezoid applies), read by
   /// Motion::move in the same step. Scratch, one array per component.
@@ -204,6 +259,7 @@ struct SolverState {
     virtual_.release_plastic_fields();  // a virtual particle's state is interpolated (half_step.hpp)
     if (material.plastic()) real.carry_plastic_fields(material.initial_state().temperature);
     else real.release_plastic_fields();
+    assign_mirror_planes();
     boundary.slot.assign(real.size(), -1);
     for (std::size_t i = 0; i < real.size(); ++i) {
       const std::int32_t b = real.boundary[i];
@@ -211,6 +267,10 @@ struct SolverState {
       if (b < 0 || static_cast<std::size_t>(b) >= boundaries.size())
         throw std::invalid_argument("solver: real particle " + std::to_string(i) + " refers to boundary condition " +
                                     std::to_string(b) + " of " + std::to_string(boundaries.size()));
+      if (boundaries[static_cast<std::size_t>(b)].kind == BoundaryCondition<Dim>::Kind::mirror)
+        throw std::invalid_argument("solver: real particle " + std::to_string(i) + " carries the mirror plane '" +
+                                    boundaries[static_cast<std::size_t>(b)].name +
+                                    "': a mirror plane is no particle's condition (its ghosts model it)");
       boundary.slot[i] = static_cast<std::int32_t>(boundary.particle.size());
       boundary.particle.push_back(static_cast<std::uint32_t>(i));
       boundary.profile.push_back(boundaries[static_cast<std::size_t>(b)].profile(initial_position_of(i)));
@@ -248,6 +308,39 @@ struct SolverState {
         for (int d = 0; d < Dim; ++d) sum[d] += nodes.coordinate[d][i] > cells.coordinate[d][c] ? 1.0 : -1.0;
       boundary.face_area[b] = share * sum;
     }
+  }
+
+  /// MirrorGhosts::planes from the mirror conditions, checked: pairwise orthogonal or
+  /// parallel, at most 8, no option that reads what ghosts do not carry. The ghosts
+  /// themselves are made with the lists (mirror_planes.hpp).
+  void assign_mirror_planes() {
+    for (std::size_t k = 0; k < boundaries.size(); ++k) {
+      const auto& c = boundaries[k];
+      if (c.kind != BoundaryCondition<Dim>::Kind::mirror) continue;
+      if (!(std::abs(c.plane_normal.norm() - 1.0) < 1e-12) || !c.plane_point.allFinite())
+        throw std::invalid_argument("solver: mirror plane '" + c.name + "' needs a finite point and a non-zero normal");
+      for (const auto& other : mirror.planes) {
+        const double cosine = std::abs(other.normal.dot(c.plane_normal));
+        if (cosine > 1e-9 && cosine < 1.0 - 1e-9)
+          throw std::invalid_argument("solver: mirror planes '" + boundaries[other.condition].name + "' and '" +
+                                      c.name + "' are neither orthogonal nor parallel: their images would not "
+                                      "tile space; use orthogonal planes (a quarter model's cuts)");
+      }
+      mirror.planes.push_back({c.plane_point, c.plane_normal, k});
+    }
+    if (!mirror.active()) return;
+    if (mirror.planes.size() > 8) throw std::invalid_argument("solver: at most 8 mirror planes");
+    const char* option = settings.conservative_momentum      ? "method.conservative_momentum"
+                         : settings.surface_extrapolation    ? "method.surface_extrapolation"
+                         : settings.free_edge_uniaxial       ? "method.free_edge_uniaxial"
+                         : settings.hourglass_coefficient > 0 ? "method.hourglass"
+                         : settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient
+                             ? "method.velocity_wall = \"wall_gradient\""
+                             : nullptr;
+    if (option)
+      throw std::invalid_argument(std::string("solver: ") + option +
+                                  " is not available with mirror planes yet (it reads per-boundary-particle state "
+                                  "that the ghosts do not carry): turn it off, or model the whole body");
   }
 
   /// The driven_condition of the real set's boundary tags.
@@ -309,6 +402,9 @@ struct SolverState {
     }
   }
 
+  /// Real particle i's share of the modelled part: 1, or 1/2 per mirror plane it lies on
+  /// (its image across the plane is itself: the mirrored body holds it once, not twice).
+  double share(std::size_t i) const { return mirror.share.empty() ? 1.0 : mirror.share[i]; }
   double support_radius() const { return kSupportFactor * settings.smoothing_length; }
   /// Updated Lagrangian: the particles move.
   bool positions_move() const { return settings.kinematics == Kinematics::updated_lagrangian; }

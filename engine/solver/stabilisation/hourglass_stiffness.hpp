@@ -101,10 +101,27 @@ class HourglassStiffness {
     const PointsView<Dim> real_points = points_of<Dim>(state.real), virtual_points = points_of<Dim>(state.virtual_);
     const auto every = [](std::uint32_t) { return true; };
     const std::size_t real_count = state.real.size(), virtual_count = state.virtual_.size();
-    forward_fit_.resize(virtual_count);
-    return_fit_.resize(real_count);
-    virtual_value_.resize(virtual_count);
-    round_trip_residual_.resize(real_count);
+    // Mirror ghosts (boundary/mirror_planes.hpp) are entries of the rows, never rows:
+    // their fits and values are their owned particles', reflected.
+    const MirrorGhosts<Dim>& mirror = state.mirror;
+    forward_fit_.resize(state.virtual_.storage_size());
+    return_fit_.resize(state.real.storage_size());
+    virtual_value_.resize(state.virtual_.storage_size());
+    round_trip_residual_.resize(state.real.storage_size());
+    auto mirror_fits = [&](std::vector<LinearFitWeights>& fits, const typename MirrorGhosts<Dim>::Images& images,
+                           std::size_t owned) {
+      for (std::size_t g = 0; g < images.source.size(); ++g) {
+        LinearFitWeights f = fits[images.source[g]];
+        const Vec c = f.first_column.template tail<Dim>();
+        f.first_column.template tail<Dim>() = mirror.reflect_direction(images.planes[g], c);
+        fits[owned + g] = f;
+      }
+    };
+    auto mirror_vectors = [&](std::vector<Vec>& values, const typename MirrorGhosts<Dim>::Images& images,
+                              std::size_t owned) {
+      for (std::size_t g = 0; g < images.source.size(); ++g)
+        values[owned + g] = mirror.reflect_direction(images.planes[g], values[images.source[g]]);
+    };
     // A: virtual values a_v = sum_J A_vJ u_J.
     parallel_for(virtual_count, [&](std::size_t v) {
       const auto nb = state.lists.virtual_from_real.neighbors(v);
@@ -117,6 +134,10 @@ class HourglassStiffness {
           if (in_support(j)) value += coefficient(forward_fit_[v], offset(j, vi), h) * displacement(j);
       virtual_value_[v] = value;
     });
+    if (mirror.active()) {
+      mirror_fits(forward_fit_, mirror.virtual_, virtual_count);
+      mirror_vectors(virtual_value_, mirror.virtual_, virtual_count);
+    }
     // R: r_I = u_I - sum_v R_Iv a_v, weighted by V_I.
     parallel_for(real_count, [&](std::size_t i) {
       const auto nb = hourglass_from_virtual_.neighbors(i);
@@ -130,9 +151,13 @@ class HourglassStiffness {
       }
       round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * residual;
     });
+    if (mirror.active()) {
+      mirror_fits(return_fit_, mirror.real, real_count);
+      mirror_vectors(round_trip_residual_, mirror.real, real_count);
+    }
     if (state.settings.energy_ledger)  // E = k/2 sum_I V_I |r_I|^2 (round_trip_residual_ holds V_I r_I)
       state.energy.hourglass_energy = 0.5 * stiffness * deterministic_sum(real_count, [&](std::size_t i) {
-        return round_trip_residual_[i].squaredNorm() * state.real.density[i] / state.real.mass[i];
+        return state.share(i) * round_trip_residual_[i].squaredNorm() * state.real.density[i] / state.real.mass[i];
       });
     // s_v = sum_I R_Iv V_I r_I (the transposed return trip; reuses virtual_value_).
     parallel_for(virtual_count, [&](std::size_t v) {
@@ -143,6 +168,7 @@ class HourglassStiffness {
                  round_trip_residual_[i];
       virtual_value_[v] = sum;
     });
+    if (mirror.active()) mirror_vectors(virtual_value_, mirror.virtual_, virtual_count);
     // F_J = -k (V_J r_J - sum_v A_vJ s_v).
     const bool ledger = state.settings.energy_ledger;
     if (ledger) kick_.resize(real_count);

@@ -1,0 +1,207 @@
+// Mirror planes (issue 16: the Taylor bar's quarter model): a plane the solution is
+// symmetric about, modelled by ghost particles. Each owned particle within reach of a
+// mirror plane gets an image across it (and across both planes where two meet: the
+// images of a quarter model tile the whole body); the images are held behind the owned
+// particles of their set while a step runs (ParticleSet::attach_ghosts), so that the
+// neighbour lists index them like any source particle and every stencil near the plane
+// is the whole body's:
+//   x' = R x (about the plane's point),  v' = R v,  u' = R u,  sigma' = R sigma R,
+//   R = I - 2 m m^T (m the plane's unit normal), every scalar copied.
+// No loop runs over the ghosts as targets: loops over ParticleSet::size() do not see
+// them; a ghost's state is refreshed from its owned particle after each stage that
+// writes what a later stage reads (TaylorSph::advance_fields). A particle on the plane
+// is its own image (no ghost across that plane): its velocity and traction keep to the
+// plane by projection (v . m = 0, sigma m = (m . sigma m) m: round-off only, the stencils
+// are symmetric) and its motion keeps it on the plane. Reach: the list radius (2h plus
+// the skin), and the hourglass stiffness's radius, at the current or initial position.
+// On a lattice symmetric about the planes the quarter model is the whole body's run to
+// round-off (tests/test_mirror_planes.cpp).
+#pragma once
+
+#include "engine/parallel.hpp"
+#include "engine/solver/state.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace tsph {
+
+template <int Dim>
+struct MirrorPlanes {
+  using Vec = Vector<Dim>;
+  using Mat = Matrix<Dim>;
+
+  /// How far from a plane a particle is imaged: the lists' radius, and the hourglass
+  /// stiffness's (max(2h, 1.75 dx), stabilisation/hourglass_stiffness.hpp).
+  static double reach(const SolverState<Dim>& state) {
+    double r = state.list_radius();
+    if (state.settings.hourglass_stiffness > 0.0) r = std::max(r, 1.75 * state.initial_spacing);
+    return r;
+  }
+
+  /// Decides which particles of both sets are imaged across which planes (at their
+  /// current and initial positions), the owned real particles on a plane, and attaches
+  /// the ghosts, filled. Called by every neighbour search (neighbor_lists.hpp). Throws
+  /// std::invalid_argument for a particle beyond a plane, or closer to it than dx / 4
+  /// without lying on it (its image would nearly coincide with it).
+  static void generate(SolverState<Dim>& state) {
+    if (!state.mirror.active()) return;
+    MirrorGhosts<Dim>& mirror = state.mirror;
+    state.real.detach_ghosts();
+    state.virtual_.detach_ghosts();
+    const double radius = reach(state), on_tolerance = 1e-6 * state.initial_spacing;
+    const double too_close = 0.25 * state.initial_spacing;
+    const std::size_t planes = mirror.planes.size();
+    auto images_of = [&](ParticleSet<Dim>& set, typename MirrorGhosts<Dim>::Images& images, bool real, const char* what) {
+      images.source.clear();
+      images.planes.clear();
+      if (real) mirror.on_plane.clear(), mirror.on_plane_mask.clear();
+      const bool initial = set.carries(set.initial_position);
+      for (std::size_t i = 0; i < set.size(); ++i) {
+        std::uint8_t near = 0, on = 0;
+        for (std::size_t k = 0; k < planes; ++k) {
+          const auto& plane = mirror.planes[k];
+          double depth = -(set.position_of(i) - plane.point).dot(plane.normal);  // >= 0 inside
+          double depth0 = depth;
+          if (initial) {
+            Vec x0;
+            for (int d = 0; d < Dim; ++d) x0[d] = set.initial_position[d][i];
+            depth0 = -(x0 - plane.point).dot(plane.normal);
+          }
+          if (std::abs(depth0) <= on_tolerance) {
+            on |= static_cast<std::uint8_t>(1u << k);
+            continue;
+          }
+          if (depth0 < 0.0 || depth0 < too_close)
+            throw std::invalid_argument(
+                std::string("mirror plane '") + state.boundaries[plane.condition].name + "': " + what + " particle " +
+                std::to_string(i) + " starts " + std::to_string(depth0) + " m " + (depth0 < 0.0 ? "beyond" : "inside") +
+                " the plane; a mirror plane needs every particle on it or at least dx/4 = " +
+                std::to_string(too_close) + " m inside (put the plane on a lattice plane or half-way between two)");
+          if (std::min(depth, depth0) < radius) near |= static_cast<std::uint8_t>(1u << k);
+        }
+        if (real && on) mirror.on_plane.push_back(static_cast<std::uint32_t>(i)), mirror.on_plane_mask.push_back(on);
+        // Every non-empty subset of the planes it is near: across one plane, across two
+        // where two meet (a quarter model's diagonal image), ...
+        for (unsigned subset = near; subset != 0; subset = (subset - 1) & near) {
+          images.source.push_back(static_cast<std::uint32_t>(i));
+          images.planes.push_back(static_cast<std::uint8_t>(subset));
+        }
+      }
+    };
+    images_of(state.real, mirror.real, true, "real");
+    mirror.share.assign(state.real.size(), 1.0);
+    for (std::size_t p = 0; p < mirror.on_plane.size(); ++p)
+      for (std::size_t k = 0; k < planes; ++k)
+        if (mirror.on_plane_mask[p] >> k & 1u) mirror.share[mirror.on_plane[p]] *= 0.5;
+    images_of(state.virtual_, mirror.virtual_, false, "virtual");
+    attach(state);
+  }
+
+  /// Attaches the ghosts of the last generate to both sets and fills them (the
+  /// boundary slots' per-particle index grows with them: a ghost has no slot).
+  static void attach(SolverState<Dim>& state) {
+    if (!state.mirror.active()) return;
+    state.real.attach_ghosts(state.mirror.real.source.size());
+    state.virtual_.attach_ghosts(state.mirror.virtual_.source.size());
+    state.boundary.slot.resize(state.real.size());
+    state.boundary.slot.resize(state.real.storage_size(), -1);
+    refresh(state);
+  }
+
+  /// Drops the ghosts (between steps the sets hold their own particles only).
+  static void detach(SolverState<Dim>& state) {
+    if (!state.mirror.active()) return;
+    state.real.detach_ghosts();
+    state.virtual_.detach_ghosts();
+    state.boundary.slot.resize(state.real.size());
+  }
+
+  /// Copies each ghost's owned particle into it, reflected (see the file comment).
+  static void refresh(SolverState<Dim>& state) {
+    if (!state.mirror.active()) return;
+    refresh_set(state.mirror, state.real, state.mirror.real);
+    refresh_set(state.mirror, state.virtual_, state.mirror.virtual_);
+  }
+  static void refresh_real(SolverState<Dim>& state) {
+    if (state.mirror.active()) refresh_set(state.mirror, state.real, state.mirror.real);
+  }
+
+  /// The owned real particles on a plane keep to it: v . m = 0, no shear traction on
+  /// the plane (sigma <- P sigma P + (m . sigma m) m m^T, P = I - m m^T).
+  static void project_on_planes(SolverState<Dim>& state) {
+    if (!state.mirror.active()) return;
+    const MirrorGhosts<Dim>& mirror = state.mirror;
+    parallel_for(mirror.on_plane.size(), [&](std::size_t p) {
+      const std::uint32_t i = mirror.on_plane[p];
+      Vec v = state.velocity_of(i);
+      Eigen::Matrix3d s = to_tensor<Dim>(SolverState<Dim>::stress_of(state.real, i));
+      for (std::size_t k = 0; k < mirror.planes.size(); ++k) {
+        if (!(mirror.on_plane_mask[p] >> k & 1u)) continue;
+        const Vec& n = mirror.planes[k].normal;
+        v -= v.dot(n) * n;
+        Eigen::Vector3d m = Eigen::Vector3d::Zero();
+        m.template head<Dim>() = n;
+        const Eigen::Matrix3d projector = Eigen::Matrix3d::Identity() - m * m.transpose();
+        s = projector * s * projector + m.dot(s * m) * (m * m.transpose());
+      }
+      const StressVector<Dim> stress = from_tensor<Dim>(s);
+      for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = v[d];
+      for (int c = 0; c < stress_component_count<Dim>; ++c) state.real.stress[c][i] = stress[c];
+    });
+  }
+
+  /// The owned real particles on a plane put back on it after a move (their normal
+  /// velocity is zero; the interpolated velocity of the material motion is not, to
+  /// round-off).
+  static void keep_on_planes(SolverState<Dim>& state) {
+    if (!state.mirror.active()) return;
+    const MirrorGhosts<Dim>& mirror = state.mirror;
+    parallel_for(mirror.on_plane.size(), [&](std::size_t p) {
+      const std::uint32_t i = mirror.on_plane[p];
+      Vec x = state.real.position_of(i);
+      for (std::size_t k = 0; k < mirror.planes.size(); ++k)
+        if (mirror.on_plane_mask[p] >> k & 1u) x -= (x - mirror.planes[k].point).dot(mirror.planes[k].normal) * mirror.planes[k].normal;
+      for (int d = 0; d < Dim; ++d) state.real.position[d][i] = x[d];
+    });
+  }
+
+ private:
+  static void refresh_set(const MirrorGhosts<Dim>& mirror, ParticleSet<Dim>& set,
+                          const typename MirrorGhosts<Dim>::Images& images) {
+    const std::size_t owned = set.size(), ghosts = images.source.size();
+    if (ghosts == 0) return;
+    set.for_each_field([&](auto& field) {
+      if (field.empty()) return;
+      for (std::size_t g = 0; g < ghosts; ++g) field[owned + g] = field[images.source[g]];
+    });
+    auto reflect_points = [&](std::array<std::vector<double>, Dim>& field, bool point) {
+      if (field[0].empty()) return;
+      for (std::size_t g = 0; g < ghosts; ++g) {
+        Vec x;
+        for (int d = 0; d < Dim; ++d) x[d] = field[d][owned + g];
+        x = point ? mirror.reflect_point(images.planes[g], x) : mirror.reflect_direction(images.planes[g], x);
+        for (int d = 0; d < Dim; ++d) field[d][owned + g] = x[d];
+      }
+    };
+    reflect_points(set.position, true);
+    reflect_points(set.initial_position, true);
+    reflect_points(set.velocity, false);
+    reflect_points(set.displacement, false);
+    auto reflect_stress = [&](std::array<std::vector<double>, stress_component_count<Dim>>& field) {
+      if (field[0].empty()) return;
+      for (std::size_t g = 0; g < ghosts; ++g) {
+        StressVector<Dim> s;
+        for (int c = 0; c < stress_component_count<Dim>; ++c) s[c] = field[c][owned + g];
+        s = from_tensor<Dim>(mirror.reflect_tensor(images.planes[g], to_tensor<Dim>(s)));
+        for (int c = 0; c < stress_component_count<Dim>; ++c) field[c][owned + g] = s[c];
+      }
+    };
+    reflect_stress(set.stress);
+    reflect_stress(set.back_stress);
+  }
+};
+
+}  // namespace tsph
