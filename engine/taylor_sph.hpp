@@ -81,7 +81,13 @@ class TaylorSph {
   double list_radius() const { return state_.list_radius(); }
   /// The time a p-wave takes to cross the smallest current spacing (no CFL factor), and
   /// where (engine/solver/time_step.hpp; time.adaptive).
-  typename StableTimeStep<Dim>::Limit stable_time_step() const { return StableTimeStep<Dim>::compute(state_); }
+  /// With mirror planes the ghosts are attached for the fit (the rows index them).
+  typename StableTimeStep<Dim>::Limit stable_time_step() {
+    MirrorPlanes<Dim>::attach(state_);
+    const auto limit = StableTimeStep<Dim>::compute(state_);
+    MirrorPlanes<Dim>::detach(state_);
+    return limit;
+  }
   double time() const { return state_.time; }
   /// Sets the clock (to land exactly on an output time after round-off).
   void set_time(double t) { state_.time = t; }
@@ -90,6 +96,9 @@ class TaylorSph {
   const Material<Dim>& material() const { return state_.material; }
   const SolverSettings<Dim>& settings() const { return state_.settings; }
   const SolverCounters& counters() const { return state_.counters; }
+  /// The lists (rows: owned particles). With mirror planes their entries also index the
+  /// ghosts, held behind the owned particles during a step only (mirror_planes.hpp):
+  /// between steps an entry >= real().size() (virtual_particles().size()) is a ghost.
   const NeighborList& virtual_from_real() const { return state_.lists.virtual_from_real; }
   /// The search of the last rebuild (cell_list or kd_tree; `automatic` resolved).
   NeighborSearch neighbor_search_used() const { return state_.lists.search_used; }
@@ -165,8 +174,13 @@ template <int Dim>
 void TaylorSph<Dim>::step(double dt) {
   if (!(dt > 0.0) || !std::isfinite(dt))
     throw std::invalid_argument("solver: time step dt = " + std::to_string(dt) + " must be positive");
-  advance_fields(dt);
-  check_stability(dt);  // a diverged state is reported before it moves any particle
+  try {
+    advance_fields(dt);
+    check_stability(dt);  // a diverged state is reported before it moves any particle
+  } catch (...) {
+    MirrorPlanes<Dim>::detach(state_);  // the sets hold their own particles for the caller
+    throw;
+  }
   advance_positions(dt);
   state_.time += dt;
   ++state_.counters.steps;
@@ -221,7 +235,7 @@ void TaylorSph<Dim>::check_stability(double dt) {
 
 template <int Dim>
 void TaylorSph<Dim>::advance_positions(double dt) {
-  MirrorPlanes<Dim>::attach(state_);  // no-op after advance_fields (attached)
+  MirrorPlanes<Dim>::attach(state_);  // after advance_fields: attached again, refreshed
   Motion<Dim>::second_half(state_, dt);
   MirrorPlanes<Dim>::detach(state_);
 }

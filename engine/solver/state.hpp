@@ -321,11 +321,15 @@ struct SolverState {
         throw std::invalid_argument("solver: mirror plane '" + c.name + "' needs a finite point and a non-zero normal");
       for (const auto& other : mirror.planes) {
         const double cosine = std::abs(other.normal.dot(c.plane_normal));
-        if (cosine > 1e-9 && cosine < 1.0 - 1e-9)
+        if (cosine > 1e-9)
           throw std::invalid_argument("solver: mirror planes '" + boundaries[other.condition].name + "' and '" +
-                                      c.name + "' are neither orthogonal nor parallel: their images would not "
-                                      "tile space; use orthogonal planes (a quarter model's cuts)");
+                                      c.name + "' are not orthogonal (|cos| = " + std::to_string(cosine) +
+                                      "): the images of a particle are those of orthogonal planes only (a "
+                                      "half or quarter model's cuts, at most one plane per direction)");
       }
+      if (settings.body_force.dot(c.plane_normal) != 0.0)
+        throw std::invalid_argument("solver: mirror plane '" + c.name + "': the body force has a component across "
+                                    "the plane, which its mirror image reverses: model the whole body");
       mirror.planes.push_back({c.plane_point, c.plane_normal, k});
     }
     if (!mirror.active()) return;
@@ -336,11 +340,16 @@ struct SolverState {
                          : settings.hourglass_coefficient > 0 ? "method.hourglass"
                          : settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient
                              ? "method.velocity_wall = \"wall_gradient\""
+                         : settings.deficient_stencils != SolverSettings<Dim>::DeficientStencils::keep
+                             ? "method.deficient_stencils = \"widen\" or \"widen_motion\""
                              : nullptr;
     if (option)
       throw std::invalid_argument(std::string("solver: ") + option +
                                   " is not available with mirror planes yet (it reads per-boundary-particle state "
                                   "that the ghosts do not carry): turn it off, or model the whole body");
+    if (find_driven_condition() >= 0)
+      throw std::invalid_argument("solver: mirror planes in a driven body (one velocity condition on every "
+                                  "particle): the motion is prescribed everywhere already; drop the planes");
   }
 
   /// The driven_condition of the real set's boundary tags.

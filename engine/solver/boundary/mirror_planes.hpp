@@ -37,7 +37,17 @@ struct MirrorPlanes {
   /// stiffness's (max(2h, 1.75 dx), stabilisation/hourglass_stiffness.hpp).
   static double reach(const SolverState<Dim>& state) {
     double r = state.list_radius();
-    if (state.settings.hourglass_stiffness > 0.0) r = std::max(r, 1.75 * state.initial_spacing);
+    if (state.settings.hourglass_stiffness > 0.0) {
+      // Its lists' spacing is the current mean virtual volume's (build_lists).
+      double volume = 0.0;
+      for (std::size_t v = 0; v < state.virtual_.size(); ++v) volume += state.virtual_.mass[v] / state.virtual_.density[v];
+      const double spacing = std::pow(volume / static_cast<double>(state.virtual_.size()), 1.0 / Dim);
+      r = std::max(r, 1.75 * std::max(spacing, state.initial_spacing));
+    }
+    // Without a skin in updated Lagrangian the full step's list is searched again at the
+    // midpoint: a half step's move (dt/2 |v| < dx/2 below the wave speed) is added.
+    if (state.positions_move() && !state.reference_kernel() && state.skin_distance() == 0.0)
+      r += 0.5 * state.initial_spacing;
     return r;
   }
 
@@ -79,7 +89,7 @@ struct MirrorPlanes {
                 std::string("mirror plane '") + state.boundaries[plane.condition].name + "': " + what + " particle " +
                 std::to_string(i) + " starts " + std::to_string(depth0) + " m " + (depth0 < 0.0 ? "beyond" : "inside") +
                 " the plane; a mirror plane needs every particle on it or at least dx/4 = " +
-                std::to_string(too_close) + " m inside (put the plane on a lattice plane or half-way between two)");
+                std::to_string(too_close) + " m inside: put the plane through a lattice plane of the real particles");
           if (std::min(depth, depth0) < radius) near |= static_cast<std::uint8_t>(1u << k);
         }
         if (real && on) mirror.on_plane.push_back(static_cast<std::uint32_t>(i)), mirror.on_plane_mask.push_back(on);
@@ -97,7 +107,44 @@ struct MirrorPlanes {
       for (std::size_t k = 0; k < planes; ++k)
         if (mirror.on_plane_mask[p] >> k & 1u) mirror.share[mirror.on_plane[p]] *= 0.5;
     images_of(state.virtual_, mirror.virtual_, false, "virtual");
+    if (state.counters.neighbor_builds == 0) check_start(state);
     attach(state);
+  }
+
+  /// At the first search: every plane holds real particles (the lattice's mirror plane,
+  /// where the case doubles their volumes), and the state on it is mirror-symmetric (no
+  /// normal velocity, no shear traction on the plane), which the model keeps.
+  static void check_start(const SolverState<Dim>& state) {
+    const MirrorGhosts<Dim>& mirror = state.mirror;
+    double speed = 0.0, stress = 0.0;
+    for (std::size_t i = 0; i < state.real.size(); ++i) {
+      speed = std::max(speed, state.velocity_of(i).norm());
+      stress = std::max(stress, to_tensor<Dim>(SolverState<Dim>::stress_of(state.real, i)).norm());
+    }
+    for (std::size_t k = 0; k < mirror.planes.size(); ++k) {
+      const std::string name = state.boundaries[mirror.planes[k].condition].name;
+      bool held = false;
+      for (std::size_t p = 0; p < mirror.on_plane.size(); ++p) {
+        if (!(mirror.on_plane_mask[p] >> k & 1u)) continue;
+        held = true;
+        const std::uint32_t i = mirror.on_plane[p];
+        const Vec& n = mirror.planes[k].normal;
+        Eigen::Vector3d m = Eigen::Vector3d::Zero();
+        m.template head<Dim>() = n;
+        const Eigen::Vector3d traction = to_tensor<Dim>(SolverState<Dim>::stress_of(state.real, i)) * m;
+        const double normal_speed = std::abs(state.velocity_of(i).dot(n));
+        const double shear = (traction - traction.dot(m) * m).norm();
+        if (normal_speed > 1e-12 * speed || shear > 1e-12 * stress)
+          throw std::invalid_argument("mirror plane '" + name + "': real particle " + std::to_string(state.real.id[i]) +
+                                      " on the plane starts with " +
+                                      (normal_speed > 1e-12 * speed ? "a velocity across it (" + std::to_string(normal_speed) + " m/s)"
+                                                                    : "a shear traction on it (" + std::to_string(shear) + " Pa)") +
+                                      ": the initial state must be mirror-symmetric about the plane, or model the whole body");
+      }
+      if (!held)
+        throw std::invalid_argument("mirror plane '" + name + "' holds no real particle: put it through a lattice "
+                                    "plane of the real particles (the body's cut)");
+    }
   }
 
   /// Attaches the ghosts of the last generate to both sets and fills them (the

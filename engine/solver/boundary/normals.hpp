@@ -82,16 +82,13 @@ struct BoundaryNormals {
                                                           state.settings.smoothing_length);
         const double norm = sum.norm();
         const Vec kernel_normal = norm > 0.0 ? Vec(-sum / norm) : Vec(Vec::Unit(0));
-        // On a surface no neighbour lies within 60 degrees of the outward normal; inside,
-        // some neighbour always does (a lattice has one every 90 degrees or closer).
-        double most_outward = -1.0;
-        for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
-          if (!state.within_support(real_points, i, real_points, j)) continue;
-          const Vec offset = state.real.position_of(j) - x;
-          most_outward = std::max(most_outward, offset.dot(kernel_normal) / offset.norm());
-        }
-        const bool on_surface = norm > 0.0 && most_outward < kSurfaceCosine;
         if (first_build) {
+          // On a surface no neighbour lies within 60 degrees of the outward normal; inside,
+          // some neighbour always does (a lattice has one every 90 degrees or closer).
+          // Decided in the initial configuration: at the start of a run it is the current
+          // one, and a run continued from a checkpoint decides as the run did (its
+          // deformed body would make the flattened face of an impact "inside").
+          const bool on_surface = surface_at_start(state, kernel, i);
           state.boundary.on_surface[b] = on_surface;
           const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
           if (!on_surface && condition.kind != BoundaryCondition<Dim>::Kind::velocity)
@@ -128,6 +125,32 @@ struct BoundaryNormals {
       }
     });
     state.lists.surface_decided = true;
+  }
+
+  /// Whether real particle i lies on a surface in the initial configuration: its kernel
+  /// normal there (initial volumes), and no neighbour within 60 degrees of it (the pairs of its row within
+  /// 2h at X; the rows hold them at the start of a run, and with the reference kernel).
+  template <class Kernel>
+  static bool surface_at_start(const SolverState<Dim>& state, const Kernel& kernel, std::uint32_t i) {
+    const PointsView<Dim> initial = initial_points_of<Dim>(state.real);
+    const double radius = state.support_radius();
+    const double density0 = state.material.elastic().reference_density();  // the initial volumes m / rho0
+    const Vec x0 = initial.point(i);
+    Vec sum = Vec::Zero();
+    for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
+      if (squared_distance<Dim>(initial, i, initial, j) <= radius * radius)
+        sum += state.real.mass[j] / density0 *
+               kernel_gradient<Dim>(kernel, Vec(x0 - initial.point(j)), state.settings.smoothing_length);
+    const double norm = sum.norm();
+    if (!(norm > 0.0)) return false;
+    const Vec normal = -sum / norm;
+    double most_outward = -1.0;
+    for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
+      if (squared_distance<Dim>(initial, i, initial, j) > radius * radius) continue;
+      const Vec offset = initial.point(j) - x0;
+      most_outward = std::max(most_outward, offset.dot(normal) / offset.norm());
+    }
+    return most_outward < kSurfaceCosine;
   }
 
   /// The normal of the face of condition `condition` at particle i: the direction of
