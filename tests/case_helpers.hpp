@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,33 @@ inline CaseRun run_case_file(const std::string& path, const std::vector<std::str
   run.report = run_case(run.file, options);
   std::filesystem::remove_all(options.out_dir);
   return run;
+}
+
+/// The last frame written: its points (x, y, z of each), its float64 arrays by name.
+struct LastFrame {
+  std::vector<double> points;
+  std::map<std::string, std::vector<double>> arrays;
+  std::size_t count = 0;
+};
+
+/// Runs a case text (the file name `name`.toml in messages) with overrides into `out_dir`,
+/// quietly, and returns its last frame (and its report if asked).
+inline LastFrame run_case_text(const std::string& text, const std::string& name, const std::string& out_dir,
+                               const std::vector<std::string>& overrides = {}, RunReport* report = nullptr) {
+  const CaseFile c = load_case_text(text, name + ".toml", overrides);
+  RunOptions options;
+  options.out_dir = out_dir;
+  options.quiet = true;
+  LastFrame last;
+  options.on_frame = [&](const output::VtuFrame& f, double) {
+    last.points = f.points;
+    last.count = f.point_count;
+    last.arrays.clear();
+    for (const auto& a : f.arrays) last.arrays[a.name] = a.float64;
+  };
+  const RunReport r = run_case(c, options);
+  if (report) *report = r;
+  return last;
 }
 
 }  // namespace tsph::testing_cases

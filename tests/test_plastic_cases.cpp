@@ -5,6 +5,7 @@
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/output/vtu_writer.hpp"
+#include "tests/case_helpers.hpp"
 
 #include <gtest/gtest.h>
 
@@ -27,29 +28,11 @@ std::filesystem::path fresh_directory(const std::string& name) {
   return dir;
 }
 
-/// The last frame's arrays by name (float64 ones), and the point positions.
-struct LastFrame {
-  std::vector<double> points;
-  std::map<std::string, std::vector<double>> arrays;
-  std::size_t count = 0;
-};
+using testing_cases::LastFrame;
 
 LastFrame run_text(const std::string& text, const std::string& name, const std::vector<std::string>& overrides = {},
                    RunReport* report = nullptr) {
-  const CaseFile c = load_case_text(text, name + ".toml", overrides);
-  RunOptions options;
-  options.out_dir = fresh_directory(name).string();
-  options.quiet = true;
-  LastFrame last;
-  options.on_frame = [&](const output::VtuFrame& f, double) {
-    last.points = f.points;
-    last.count = f.point_count;
-    last.arrays.clear();
-    for (const auto& a : f.arrays) last.arrays[a.name] = a.float64;
-  };
-  const RunReport r = run_case(c, options);
-  if (report) *report = r;
-  return last;
+  return testing_cases::run_case_text(text, name, fresh_directory(name).string(), overrides, report);
 }
 
 // A strip between two symmetry planes (y = 0 and y = H, plane strain) is the 1D bar of
