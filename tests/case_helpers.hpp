@@ -98,6 +98,15 @@ inline CaseRun run_case_file(const std::string& path, const std::vector<std::str
   return run;
 }
 
+/// A fresh directory `tsph_<prefix>_<name>` under the test's temporary directory (the
+/// same path for the same names: a test reads back what it wrote there).
+inline std::filesystem::path fresh_named_directory(const std::string& prefix, const std::string& name) {
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("tsph_" + prefix + "_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
 /// The last frame written: its points (x, y, z of each), its float64 arrays by name.
 struct LastFrame {
   std::vector<double> points;

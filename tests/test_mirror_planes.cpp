@@ -32,13 +32,7 @@ using namespace tsph;
 std::filesystem::path fresh_directory_path(const std::string& name) {
   return std::filesystem::path(::testing::TempDir()) / ("tsph_mirror_" + name);
 }
-
-std::filesystem::path fresh_directory(const std::string& name) {
-  const std::filesystem::path dir = fresh_directory_path(name);
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
+std::filesystem::path fresh_directory(const std::string& name) { return testing_cases::fresh_named_directory("mirror", name); }
 
 using testing_cases::LastFrame;
 

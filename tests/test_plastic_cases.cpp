@@ -21,12 +21,7 @@ namespace {
 
 using namespace tsph;
 
-std::filesystem::path fresh_directory(const std::string& name) {
-  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("tsph_plastic_" + name);
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
+std::filesystem::path fresh_directory(const std::string& name) { return testing_cases::fresh_named_directory("plastic", name); }
 
 using testing_cases::LastFrame;
 
