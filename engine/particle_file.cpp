@@ -112,7 +112,26 @@ std::vector<std::string> stress_columns() {
   else return {"sxx", "syy", "szz", "sxy", "syz", "szx"};
 }
 
+/// The column names of the first line that is neither blank nor a comment (empty at the
+/// end of the stream); `line_number` counts the lines read.
+std::vector<std::string> read_header(std::istream& in, std::size_t& line_number) {
+  std::string line;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
+    return split(line);
+  }
+  return {};
+}
+
 }  // namespace
+
+bool particle_file_has_column(const std::string& path, const std::string& column) {
+  std::ifstream in(path);
+  std::size_t line_number = 0;
+  const std::vector<std::string> names = read_header(in, line_number);
+  return std::find(names.begin(), names.end(), column) != names.end();
+}
 
 std::optional<std::string> particle_file_problem(const std::string& path) {
   struct stat st {};
@@ -170,13 +189,7 @@ ParticleSet<Dim> read_particle_csv(std::istream& in, const std::string& path, do
   std::string line;
   std::size_t line_number = 0;
   std::vector<std::pair<char, int>> columns;
-  std::vector<std::string> names;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
-    names = split(line);
-    break;
-  }
+  const std::vector<std::string> names = read_header(in, line_number);
   const std::string where = "particle file '" + path + "'";
   if (names.empty()) throw std::invalid_argument(where + " is empty: it needs a header line");
   if (all_numbers(names)) {

@@ -30,6 +30,9 @@ inline constexpr std::uintmax_t kMaxParticleFileBytes = std::uintmax_t{16} << 30
 /// blocks on a FIFO or reads a device (issue 15).
 std::optional<std::string> particle_file_problem(const std::string& path);
 
+/// Whether the file's header line names `column` (false for a file that cannot be read).
+bool particle_file_has_column(const std::string& path, const std::string& column);
+
 /// Reads the file; throws std::invalid_argument naming the file, line, column and
 /// value of the first problem (missing file, not a regular file, unknown column, wrong
 /// field count, unparsable or non-finite value, duplicated or overlapping particles).

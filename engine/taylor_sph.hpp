@@ -192,10 +192,9 @@ void TaylorSph<Dim>::advance_fields(double dt) {
   const double t_new = state_.time + dt;
   visit_stages([&](const auto& kernel, const auto& model) {
     const bool ledger = settings.energy_ledger;
-    // Mirror planes: the particles on a plane keep to it, and the ghosts are attached
-    // for the step (refreshed after each stage whose output a later one reads through
-    // the lists; detached at the end of advance_positions).
-    MirrorPlanes<Dim>::project_on_planes(state_);
+    // Mirror planes: the ghosts, attached for the step (refreshed where a later stage
+    // reads through the lists what an earlier one wrote: the first half of the motion,
+    // advance_positions; detached at its end).
     MirrorPlanes<Dim>::attach(state_);
     if (ledger) energy_.begin(state_);
     CharacteristicBoundary<Dim>::gradients_at_n(state_, kernel);  // grad U^n at the boundary
@@ -207,23 +206,17 @@ void TaylorSph<Dim>::advance_fields(double dt) {
     // omega^2 dt^2 / 2 per step).
     if (settings.conservative_momentum) momentum_.store_weights(state_, kernel);
     FullStep<Dim>::apply(state_, kernel, model, dt);                // seed eq. (4): virtual -> real
-    MirrorPlanes<Dim>::refresh_real(state_);
     if (ledger) energy_.before_boundary_stage(state_);
     CharacteristicBoundary<Dim>::apply(state_, model, dt, t_new);   // boundary state at n+1
     if (settings.conservative_momentum) momentum_.apply(state_, dt, t_new);
     if (ledger) energy_.after_boundary_stage(state_, /*overwrite=*/true);  // the slots' change
-    MirrorPlanes<Dim>::project_on_planes(state_);
-    MirrorPlanes<Dim>::refresh_real(state_);
-    if (settings.hourglass_stiffness > 0.0) {
-      hourglass_stiffness_.apply(state_, kernel, dt);
-      MirrorPlanes<Dim>::project_on_planes(state_);
-      MirrorPlanes<Dim>::refresh_real(state_);
-    }
+    if (settings.hourglass_stiffness > 0.0) hourglass_stiffness_.apply(state_, kernel, dt);
     if (settings.hourglass_coefficient > 0.0) {
       if (ledger) energy_.before_boundary_stage(state_);
       surface_filter_.apply(state_, kernel);
       if (ledger) energy_.after_boundary_stage(state_, /*overwrite=*/false);
     }
+    MirrorPlanes<Dim>::project_on_planes(state_);  // the particles on a plane keep to it
     if (ledger) energy_.end(state_, dt, hourglass_stiffness_.kicks());  // empty with the stiffness off
   });
 }
@@ -235,7 +228,7 @@ void TaylorSph<Dim>::check_stability(double dt) {
 
 template <int Dim>
 void TaylorSph<Dim>::advance_positions(double dt) {
-  MirrorPlanes<Dim>::attach(state_);  // after advance_fields: attached again, refreshed
+  MirrorPlanes<Dim>::attach(state_);  // after advance_fields: refreshed (the real set's new state)
   Motion<Dim>::second_half(state_, dt);
   MirrorPlanes<Dim>::detach(state_);
 }

@@ -13,10 +13,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
 
 namespace tsph {
 namespace {
@@ -156,25 +154,6 @@ double case_time_step(const CaseFile& c) { return c.dt > 0.0 ? c.dt : c.cfl * c.
 
 namespace {
 
-/// Whether a particle file's header names a volume column (its first line that is
-/// neither blank nor a comment).
-bool particle_file_has_volumes(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
-    std::stringstream header(line);
-    std::string name;
-    while (std::getline(header, name, ',')) {
-      name.erase(0, name.find_first_not_of(" \t\r"));
-      name.erase(name.find_last_not_of(" \t\r") + 1);
-      if (name == "volume") return true;
-    }
-    return false;
-  }
-  return false;
-}
-
 /// The velocity of the case's beam mode shapes at x0 ([initial.profile] types
 /// "cantilever_mode" and "twist", docs/cases.md): s the distance along the axis from the
 /// clamp, zero behind it (s < 0).
@@ -233,7 +212,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   // modelled part's share of its volume, half per plane; it carries the whole.
   // A particle file without a volume column gives every particle a whole cell dx^Dim:
   // nothing to restore there.
-  const bool shares = c.particle_file.empty() || particle_file_has_volumes(c.particle_file);
+  const bool shares = c.particle_file.empty() || particle_file_has_column(c.particle_file, "volume");
   std::vector<std::size_t> on_mirror(c.boundaries.size(), 0);  // reported as the plane's particles
   for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
     const BoundarySpec& s = c.boundaries[k];

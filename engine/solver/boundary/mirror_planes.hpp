@@ -8,8 +8,9 @@
 //   x' = R x (about the plane's point),  v' = R v,  u' = R u,  sigma' = R sigma R,
 //   R = I - 2 m m^T (m the plane's unit normal), every scalar copied.
 // No loop runs over the ghosts as targets: loops over ParticleSet::size() do not see
-// them; a ghost's state is refreshed from its owned particle after each stage that
-// writes what a later stage reads (TaylorSph::advance_fields). A particle on the plane
+// them; a ghost's state is refreshed from its owned particle where a later stage reads
+// through the lists what an earlier one wrote: after the half step and each motion
+// (kinematics.hpp), and at the start of advance_positions (TaylorSph). A particle on the plane
 // is its own image (no ghost across that plane): its velocity and traction keep to the
 // plane by projection (v . m = 0, sigma m = (m . sigma m) m: round-off only, the stencils
 // are symmetric) and its motion keeps it on the plane. Reach: the list radius (2h plus
@@ -19,6 +20,7 @@
 #pragma once
 
 #include "engine/parallel.hpp"
+#include "engine/solver/stabilisation/hourglass_stiffness.hpp"
 #include "engine/solver/state.hpp"
 
 #include <algorithm>
@@ -34,16 +36,12 @@ struct MirrorPlanes {
   using Mat = Matrix<Dim>;
 
   /// How far from a plane a particle is imaged: the lists' radius, and the hourglass
-  /// stiffness's (max(2h, 1.75 dx), stabilisation/hourglass_stiffness.hpp).
+  /// stiffness's lists' (stabilisation/hourglass_stiffness.hpp).
   static double reach(const SolverState<Dim>& state) {
     double r = state.list_radius();
-    if (state.settings.hourglass_stiffness > 0.0) {
-      // Its lists' spacing is the current mean virtual volume's (build_lists).
-      double volume = 0.0;
-      for (std::size_t v = 0; v < state.virtual_.size(); ++v) volume += state.virtual_.mass[v] / state.virtual_.density[v];
-      const double spacing = std::pow(volume / static_cast<double>(state.virtual_.size()), 1.0 / Dim);
-      r = std::max(r, 1.75 * std::max(spacing, state.initial_spacing));
-    }
+    // The stiffness builds its lists later in the step, after the full step changed the
+    // densities: 10 % more.
+    if (state.settings.hourglass_stiffness > 0.0) r = std::max(r, 1.1 * HourglassStiffness<Dim>::list_radius(state));
     // Without a skin in updated Lagrangian the full step's list is searched again at the
     // midpoint: a half step's move (dt/2 |v| < dx/2 below the wave speed) is added.
     if (state.positions_move() && !state.reference_kernel() && state.skin_distance() == 0.0)
@@ -149,12 +147,16 @@ struct MirrorPlanes {
 
   /// Attaches the ghosts of the last generate to both sets and fills them (the
   /// boundary slots' per-particle index grows with them: a ghost has no slot).
+  /// Already attached (advance_positions after advance_fields): refreshed only.
   static void attach(SolverState<Dim>& state) {
     if (!state.mirror.active()) return;
-    state.real.attach_ghosts(state.mirror.real.source.size());
-    state.virtual_.attach_ghosts(state.mirror.virtual_.source.size());
-    state.boundary.slot.resize(state.real.size());
-    state.boundary.slot.resize(state.real.storage_size(), -1);
+    if (state.real.ghost_count() != state.mirror.real.source.size() ||
+        state.virtual_.ghost_count() != state.mirror.virtual_.source.size()) {
+      state.real.attach_ghosts(state.mirror.real.source.size());
+      state.virtual_.attach_ghosts(state.mirror.virtual_.source.size());
+      state.boundary.slot.resize(state.real.size());
+      state.boundary.slot.resize(state.real.storage_size(), -1);
+    }
     refresh(state);
   }
 
@@ -171,9 +173,6 @@ struct MirrorPlanes {
     if (!state.mirror.active()) return;
     refresh_set(state.mirror, state.real, state.mirror.real);
     refresh_set(state.mirror, state.virtual_, state.mirror.virtual_);
-  }
-  static void refresh_real(SolverState<Dim>& state) {
-    if (state.mirror.active()) refresh_set(state.mirror, state.real, state.mirror.real);
   }
 
   /// The owned real particles on a plane keep to it: v . m = 0, no shear traction on

@@ -74,12 +74,9 @@ struct BoundaryNormals {
       if (first_build) state.boundary.on_surface.assign(state.boundary.particle.size(), 1);
       for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
         const std::uint32_t i = state.boundary.particle[b];
-        const Vec x = state.real.position_of(i);
-        Vec sum = Vec::Zero();
-        for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
-          if (state.within_support(real_points, i, real_points, j))
-            sum += state.real.volume[j] * kernel_gradient<Dim>(kernel, Vec(x - state.real.position_of(j)),
-                                                          state.settings.smoothing_length);
+        const Vec sum = kernel_gradient_sum(
+            state, kernel, real_points, i, [&](std::uint32_t j) { return state.real.volume[j]; },
+            [&](std::uint32_t j) { return state.within_support(real_points, i, real_points, j); });
         const double norm = sum.norm();
         const Vec kernel_normal = norm > 0.0 ? Vec(-sum / norm) : Vec(Vec::Unit(0));
         if (first_build) {
@@ -127,6 +124,18 @@ struct BoundaryNormals {
     state.lists.surface_decided = true;
   }
 
+  /// sum_J V_J grad_I W_IJ over the pairs (i, j) of i's real row that `keep` accepts, at
+  /// `points` (-: the kernel normal's direction).
+  template <class Kernel, class VolumeOf, class Keep>
+  static Vec kernel_gradient_sum(const SolverState<Dim>& state, const Kernel& kernel, const PointsView<Dim>& points,
+                                 std::uint32_t i, VolumeOf volume_of, Keep keep) {
+    const Vec x = points.point(i);
+    Vec sum = Vec::Zero();
+    for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
+      if (keep(j)) sum += volume_of(j) * kernel_gradient<Dim>(kernel, Vec(x - points.point(j)), state.settings.smoothing_length);
+    return sum;
+  }
+
   /// Whether real particle i lies on a surface in the initial configuration: its kernel
   /// normal there (initial volumes), and no neighbour within 60 degrees of it (the pairs of its row within
   /// 2h at X; the rows hold them at the start of a run, and with the reference kernel).
@@ -136,17 +145,15 @@ struct BoundaryNormals {
     const double radius = state.support_radius();
     const double density0 = state.material.elastic().reference_density();  // the initial volumes m / rho0
     const Vec x0 = initial.point(i);
-    Vec sum = Vec::Zero();
-    for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
-      if (squared_distance<Dim>(initial, i, initial, j) <= radius * radius)
-        sum += state.real.mass[j] / density0 *
-               kernel_gradient<Dim>(kernel, Vec(x0 - initial.point(j)), state.settings.smoothing_length);
+    const auto within = [&](std::uint32_t j) { return squared_distance<Dim>(initial, i, initial, j) <= radius * radius; };
+    const Vec sum = kernel_gradient_sum(
+        state, kernel, initial, i, [&](std::uint32_t j) { return state.real.mass[j] / density0; }, within);
     const double norm = sum.norm();
     if (!(norm > 0.0)) return false;
     const Vec normal = -sum / norm;
     double most_outward = -1.0;
     for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
-      if (squared_distance<Dim>(initial, i, initial, j) > radius * radius) continue;
+      if (!within(j)) continue;
       const Vec offset = initial.point(j) - x0;
       most_outward = std::max(most_outward, offset.dot(normal) / offset.norm());
     }

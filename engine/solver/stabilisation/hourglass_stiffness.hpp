@@ -202,6 +202,15 @@ class HourglassStiffness {
     });
   }
 
+  /// The radius of the return trip's lists: max(2h, 1.75 dx), dx from the current mean
+  /// virtual volume (the mirror planes image the particles within it too).
+  static double list_radius(const SolverState<Dim>& state) {
+    double mean_volume = 0.0;
+    for (std::size_t v = 0; v < state.virtual_.size(); ++v) mean_volume += state.virtual_.mass[v] / state.virtual_.density[v];
+    mean_volume /= static_cast<double>(state.virtual_.size());
+    return std::max(state.support_radius(), 1.75 * std::pow(mean_volume, 1.0 / Dim));
+  }
+
   /// The velocity change of each real particle in the last step (with
   /// SolverSettings::energy_ledger only, else empty; energy_ledger.hpp books its work).
   const std::vector<Vec>& kicks() const { return kick_; }
@@ -221,11 +230,7 @@ class HourglassStiffness {
   /// transpose), in the initial coordinates: radius max(2h, 1.75 dx) (dx from the mean virtual volume), so that every
   /// real particle, corners included, sees Dim + 1 virtual particles off a line.
   void build_lists(const SolverState<Dim>& state) {
-    double mean_volume = 0.0;
-    for (std::size_t v = 0; v < state.virtual_.size(); ++v) mean_volume += state.virtual_.mass[v] / state.virtual_.density[v];
-    mean_volume /= static_cast<double>(state.virtual_.size());
-    const double spacing = std::pow(mean_volume, 1.0 / Dim);
-    hourglass_radius_ = std::max(state.support_radius(), 1.75 * spacing);
+    hourglass_radius_ = list_radius(state);
     const PointsView<Dim> real_points = initial_points_of<Dim>(state.real), virtual_points = initial_points_of<Dim>(state.virtual_);
     hourglass_from_virtual_ = CellList<Dim>(virtual_points, hourglass_radius_).query(real_points);
     hourglass_to_real_ = CellList<Dim>(real_points, hourglass_radius_).query(virtual_points);
