@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -61,6 +62,34 @@ class TimeFunction {
   }
 
   Kind kind() const { return kind_; }
+
+  /// int_0^t f(s) ds (t >= 0), exact for every kind: a velocity gradient scaled by f
+  /// moves the material along exp(G int_0^t f) (engine/affine_motion.hpp).
+  double integral(double t) const {
+    // int_0^t of a function linear on [a, b] between the values fa and fb, clipped to [0, t].
+    auto linear_piece = [t](double a, double b, double fa, double fb) {
+      const double lo = std::max(a, 0.0), hi = std::min(b, t);
+      if (!(hi > lo)) return 0.0;
+      const auto at = [&](double x) { return b > a ? fa + (fb - fa) * (x - a) / (b - a) : fa; };
+      return 0.5 * (at(lo) + at(hi)) * (hi - lo);
+    };
+    const double inf = std::numeric_limits<double>::infinity();
+    switch (kind_) {
+      case Kind::constant: return amplitude_ * std::max(t, 0.0);
+      case Kind::rectangular_pulse: return linear_piece(t_start_, t_end_, amplitude_, amplitude_);
+      case Kind::linear_ramp:
+        return linear_piece(t_start_, t_end_, 0.0, amplitude_) + amplitude_ * std::max(0.0, t - std::max(t_end_, 0.0));
+      case Kind::table: {
+        double sum = 0.0;
+        if (t > 0.0 && times_.front() > 0.0) sum += values_.front() * (std::min(t, times_.front()));
+        for (std::size_t k = 1; k < times_.size(); ++k)
+          sum += linear_piece(times_[k - 1], times_[k], values_[k - 1], values_[k]);
+        sum += linear_piece(std::max(times_.back(), 0.0), inf, values_.back(), values_.back());
+        return sum;
+      }
+    }
+    return 0.0;
+  }
 
   double operator()(double t) const {
     switch (kind_) {

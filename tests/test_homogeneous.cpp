@@ -6,10 +6,12 @@
 #include "engine/affine_motion.hpp"
 #include "engine/case/case_build.hpp"
 #include "engine/case/case_file.hpp"
+#include "engine/time_function.hpp"
 #include "engine/validation/homogeneous.hpp"
 #include "tests/case_helpers.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include <gtest/gtest.h>
 
@@ -175,6 +177,30 @@ TEST(VelocityGradientKey, ImposesTheAffineFieldAtTheCurrentPositions) {
     worst = std::max(worst, (v - (a + g * x)).norm());
   }
   EXPECT_LT(worst, 1e-5 * (a.norm() + g.norm()));
+}
+
+// With value = 0 a time function scales G: v = f(t) G x, imposed along the exact motion
+// x = exp(G int_0^t f) x0 (f G at different times commute). A rigid spin reversed by a
+// table: the condition's velocity is f(t) G x(t) and the material point has turned by
+// omega int_0^t f, the closed form of a rotation.
+TEST(VelocityGradientKey, ATimeFunctionScalesTheGradientAlongTheExactMotion) {
+  const std::string text = kBlock + "value = [0.0, 0.0]\nvelocity_gradient = [0.0, -2.0, 2.0, 0.0]\n"
+                                    "time = { type = \"table\", times = [0.5, 1.0], values = [1.0, -1.0] }\n";
+  const CaseFile c = load_case_text(text, "block.toml");
+  BuiltCase<2> b = build_case<2>(c);
+  ASSERT_EQ(b.conditions.size(), 1u);
+  const Eigen::Vector2d x0(0.3, 0.5);
+  for (double t : {0.25, 0.5, 0.6, 0.75, 0.9, 1.0, 1.7}) {
+    const TimeFunction f = TimeFunction::table({0.5, 1.0}, {1.0, -1.0});
+    const double angle = 2.0 * f.integral(t);  // omega = 2 rad/s
+    const Eigen::Vector2d x = Eigen::Rotation2Dd(angle).toRotationMatrix() * x0;
+    const Eigen::Vector2d expected = f(t) * 2.0 * Eigen::Vector2d(-x.y(), x.x());
+    EXPECT_LT((b.conditions[0].prescribed(x0, Eigen::Vector2d::Ones(), t) - expected).norm(), 1e-14) << "t = " << t;
+  }
+  // A moving value with a non-constant time function stays refused (its motion is not exact).
+  const std::string e = error_of(kBlock + "value = [0.1, 0.0]\nvelocity_gradient = [0.0, -2.0, 2.0, 0.0]\n"
+                                          "time = { type = \"table\", times = [0.5, 1.0], values = [1.0, -1.0] }\n");
+  EXPECT_NE(e.find("value = zeros the time function scales G"), std::string::npos) << e;
 }
 
 // A driven body (SolverState::driven_condition: one velocity condition on every

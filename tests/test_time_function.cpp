@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <vector>
+
 namespace tsph {
 namespace {
 
@@ -36,6 +39,27 @@ TEST(TimeFunction, TableInterpolatesLinearlyAndHoldsItsEnds) {
   EXPECT_DOUBLE_EQ(f(0.5), 1.0);
   EXPECT_DOUBLE_EQ(f(2.0), 0.0);
   EXPECT_EQ(f(10.0), -2.0);
+}
+
+// int_0^t f against a composite midpoint rule on a grid that puts every switching
+// instant on a cell boundary (exact for piecewise-linear f), and the closed forms.
+TEST(TimeFunction, IntegralIsExactForEveryKind) {
+  const std::vector<TimeFunction> functions = {
+      TimeFunction::constant(-2.5), TimeFunction::rectangular_pulse(3.0, 0.5, 1.25),
+      TimeFunction::linear_ramp(2.0, 0.25, 1.5), TimeFunction::table({0.5, 1.0, 2.0}, {1.0, 1.0, -1.0}),
+      TimeFunction::table({-1.0, 0.75, 1.75}, {4.0, -2.0, 3.0}), TimeFunction::table({1.0}, {-3.0})};
+  for (std::size_t k = 0; k < functions.size(); ++k) {
+    const TimeFunction& f = functions[k];
+    for (double t : {0.0, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.75}) {
+      const int cells = static_cast<int>(std::lround(t * 4000.0));  // a cell of 1/4000 s
+      double sum = 0.0;
+      for (int c = 0; c < cells; ++c) sum += f((c + 0.5) / 4000.0) / 4000.0;
+      EXPECT_NEAR(f.integral(t), sum, 1e-10) << "function " << k << " at t = " << t;
+    }
+  }
+  EXPECT_DOUBLE_EQ(TimeFunction::linear_ramp(2.0, 1.0, 3.0).integral(5.0), 2.0 + 4.0);
+  EXPECT_DOUBLE_EQ(TimeFunction::table({1.0, 2.0}, {1.0, -1.0}).integral(2.0), 1.0);
+  EXPECT_EQ(TimeFunction::constant(7.0).integral(0.0), 0.0);
 }
 
 TEST(TimeFunction, InvalidDefinitionsThrow) {

@@ -291,9 +291,16 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
       for (int r = 0; r < Dim; ++r)
         for (int col = 0; col < Dim; ++col) g(r, col) = s.velocity_gradient[static_cast<std::size_t>(r * Dim + col)];
       const AffineMotion<Dim> motion(g, to_vector<Dim>(s.value));
-      // A time function scales `value` only, which is zero when one is given (case_file.cpp).
-      b.conditions.push_back(BoundaryCondition<Dim>::velocity_field(
-          [motion](const Vec& x0, double t) { return motion.velocity(x0, t); }, s.name));
+      if (s.time.type == "constant") {
+        b.conditions.push_back(BoundaryCondition<Dim>::velocity_field(
+            [motion](const Vec& x0, double t) { return motion.velocity(x0, t); }, s.name));
+      } else {
+        // value = 0 (case_file.cpp): v = f(t) G x along x(t) = exp(G F(t)) x0, F = int_0^t f
+        // (f G at different times commute), so the motion stays exact.
+        const TimeFunction f = make_time_function(s.time, 1.0);
+        b.conditions.push_back(BoundaryCondition<Dim>::velocity_field(
+            [motion, f](const Vec& x0, double t) { return Vec(f(t) * motion.velocity(x0, f.integral(t))); }, s.name));
+      }
     } else if (s.type == "velocity")
       b.conditions.push_back(BoundaryCondition<Dim>::velocity(components, s.name, profile));
     else

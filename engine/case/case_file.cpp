@@ -382,10 +382,10 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     } else {
       s.value.assign(dim, 0.0);
     }
-    if (b.has("velocity_gradient")) {  // v = value f(t) + G x (engine/affine_motion.hpp)
+    if (b.has("velocity_gradient")) {  // v = value + G x or f(t) G x (engine/affine_motion.hpp)
       if (s.type != "velocity") {
         context.invalid(b.get("velocity_gradient", false, ""), b.path("velocity_gradient"),
-                        "applies to type = \"velocity\" only (v = value f(t) + G x); remove it or "
+                        "applies to type = \"velocity\" only (v = value + G x); remove it or "
                         "change the type");
       } else {
         s.velocity_gradient = b.numbers("velocity_gradient", true, dim * dim, "row by row, 1/s")
@@ -394,7 +394,8 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
         if (!s.velocity_gradient.empty() && moving_value && s.time.type != "constant")
           context.invalid(b.get("velocity_gradient", false, ""), b.path("velocity_gradient"),
                           "needs time.type = \"constant\" when value is non-zero (the motion of "
-                          "v = value + G x is integrated exactly only for a constant value); set "
+                          "v = value + G x is integrated exactly only for a constant value; with "
+                          "value = zeros the time function scales G: v = f(t) G x); set "
                           "value = zeros or remove the time function");
         if (!s.velocity_gradient.empty() && s.profile != "uniform")
           context.invalid(b.get("velocity_gradient", false, ""), b.path("velocity_gradient"),

@@ -53,7 +53,8 @@ struct BoundarySpec {
   TimeFunctionSpec time;
   std::string profile = "uniform";  ///< uniform | cantilever_shear
   /// velocity only: G, Dim x Dim row by row (empty: none); the condition prescribes
-  /// v = value f(t) + G x, x the current position (engine/affine_motion.hpp).
+  /// v = value + G x (time constant) or v = f(t) G x (value zero), x the current position
+  /// (engine/affine_motion.hpp).
   std::vector<double> velocity_gradient;
 };
 

@@ -55,6 +55,23 @@ inline Eigen::Matrix3d j2_uniaxial_strain(double young, double nu, double yield,
       .asDiagonal();
 }
 
+/// The same loaded to `peak` and then, if `reversed`, strained back to `strain` (unloading,
+/// then reverse yielding: the Bauschinger effect with kinematic hardening).
+inline Eigen::Matrix3d j2_uniaxial_strain_cycle(double young, double nu, double yield, double iso, double kin,
+                                                double peak, bool reversed, double strain,
+                                                double* plastic_strain = nullptr) {
+  if (!reversed) return j2_uniaxial_strain(young, nu, yield, iso, kin, strain, plastic_strain);
+  const double mu = young / (2.0 * (1.0 + nu)), bulk = young / (3.0 * (1.0 - 2.0 * nu));
+  LinearHardeningPath path{2.0 * mu, std::sqrt(2.0 / 3.0), 2.0 / 3.0, std::sqrt(2.0 / 3.0), yield, iso, kin};
+  path.advance(std::sqrt(2.0 / 3.0) * peak);
+  path.advance(std::sqrt(2.0 / 3.0) * (strain - peak));
+  if (plastic_strain) *plastic_strain = path.eps;
+  const double deviator_xx = std::sqrt(2.0 / 3.0) * path.s;
+  return Eigen::Vector3d(bulk * strain + deviator_xx, bulk * strain - 0.5 * deviator_xx,
+                         bulk * strain - 0.5 * deviator_xx)
+      .asDiagonal();
+}
+
 /// Johnson-Cook strength without rate and temperature terms, Y = A + B eps_p^n, in
 /// uniaxial strain loaded monotonically: q = 3 mu (2/3 strain - eps_p) = Y(eps_p)
 /// (radial: the return of any step size lands on it), solved by bisection.
