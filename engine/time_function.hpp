@@ -63,8 +63,10 @@ class TimeFunction {
 
   Kind kind() const { return kind_; }
 
-  /// int_0^t f(s) ds (t >= 0), exact for every kind: a velocity gradient scaled by f
-  /// moves the material along exp(G int_0^t f) (engine/affine_motion.hpp).
+  /// int_0^t f(s) ds (t >= 0; 0 for t < 0), exact for every kind: a velocity gradient
+  /// scaled by f moves the material along exp(G int_0^t f) (engine/affine_motion.hpp). The
+  /// pulse is integrated over [t_start, t_end] exactly (operator() switches 1e-9 of the
+  /// time scale later: a difference of that order).
   double integral(double t) const {
     // int_0^t of a function linear on [a, b] between the values fa and fb, clipped to [0, t].
     auto linear_piece = [t](double a, double b, double fa, double fb) {

@@ -190,9 +190,17 @@ TEST(VelocityGradientKey, ATimeFunctionScalesTheGradientAlongTheExactMotion) {
   BuiltCase<2> b = build_case<2>(c);
   ASSERT_EQ(b.conditions.size(), 1u);
   const Eigen::Vector2d x0(0.3, 0.5);
+  // int_0^t f by hand (f = 1 - 4 (t - 0.5) between 0.5 and 1): t until 0.5, then
+  // t - 2 (t - 0.5)^2 until 1.0 (0.625 at the turn t = 0.75, 0.5 at 1.0), then 0.5 - (t - 1).
+  const auto integral = [](double t) {
+    if (t <= 0.5) return t;
+    if (t <= 1.0) return t - 2.0 * (t - 0.5) * (t - 0.5);
+    return 0.5 - (t - 1.0);
+  };
   for (double t : {0.25, 0.5, 0.6, 0.75, 0.9, 1.0, 1.7}) {
     const TimeFunction f = TimeFunction::table({0.5, 1.0}, {1.0, -1.0});
-    const double angle = 2.0 * f.integral(t);  // omega = 2 rad/s
+    EXPECT_NEAR(f.integral(t), integral(t), 1e-15) << "t = " << t;
+    const double angle = 2.0 * integral(t);  // omega = 2 rad/s
     const Eigen::Vector2d x = Eigen::Rotation2Dd(angle).toRotationMatrix() * x0;
     const Eigen::Vector2d expected = f(t) * 2.0 * Eigen::Vector2d(-x.y(), x.x());
     EXPECT_LT((b.conditions[0].prescribed(x0, Eigen::Vector2d::Ones(), t) - expected).norm(), 1e-14) << "t = " << t;

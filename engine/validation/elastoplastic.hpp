@@ -93,6 +93,44 @@ inline Eigen::Matrix3d johnson_cook_uniaxial_strain(double young, double nu, dou
   return Eigen::Vector3d(mean + sign * 2.0 / 3.0 * q, mean - sign * q / 3.0, mean - sign * q / 3.0).asDiagonal();
 }
 
+/// The same loaded to `peak` and then, if `reversed`, strained back to `strain`: elastic
+/// unloading until the deviator along N = (2, -1, -1) / sqrt 6, s, reaches
+/// -sqrt(2/3) Y(eps_p), then reverse yielding on it (isotropic hardening):
+///   s = s_peak + 2 mu (de - dp),  eps_p = eps_peak + sqrt(2/3) |dp|,
+/// with de = sqrt(2/3) (strain - peak), solved for eps_p by bisection.
+inline Eigen::Matrix3d johnson_cook_uniaxial_strain_cycle(double young, double nu, double a, double b, double n,
+                                                          double peak, bool reversed, double strain,
+                                                          double* plastic_strain = nullptr) {
+  if (!reversed) return johnson_cook_uniaxial_strain(young, nu, a, b, n, strain, plastic_strain);
+  const double mu = young / (2.0 * (1.0 + nu)), bulk = young / (3.0 * (1.0 - 2.0 * nu));
+  double eps_peak = 0.0;
+  const Eigen::Matrix3d at_peak = johnson_cook_uniaxial_strain(young, nu, a, b, n, peak, &eps_peak);
+  const double sign = peak >= 0.0 ? 1.0 : -1.0;  // the direction of the first loading
+  const double s_peak = std::sqrt(1.5) * (at_peak(0, 0) - bulk * peak);  // deviator_xx = sqrt(2/3) s
+  const double de = std::sqrt(2.0 / 3.0) * (strain - peak);
+  const double yield = [&](double eps) { return a + b * std::pow(eps, n); }(eps_peak);
+  double eps = eps_peak, s = s_peak + 2.0 * mu * de;
+  if (sign * s < -std::sqrt(2.0 / 3.0) * yield) {  // reverse yielding: s = -sign sqrt(2/3) Y(eps)
+    // g(eps) = sign s(eps) + sqrt(2/3) Y(eps), s(eps) = s_peak + 2 mu de + sign 2 mu sqrt(3/2) (eps - eps_peak),
+    // increases with eps from g(eps_peak) < 0.
+    const auto g = [&](double e) {
+      return sign * (s_peak + 2.0 * mu * de) + 2.0 * mu * std::sqrt(1.5) * (e - eps_peak) +
+             std::sqrt(2.0 / 3.0) * (a + b * std::pow(e, n));
+    };
+    double low = eps_peak, high = eps_peak + std::abs(de) * std::sqrt(2.0 / 3.0) + 1e-300;
+    for (int k = 0; k < 200; ++k) {
+      eps = 0.5 * (low + high);
+      (g(eps) < 0.0 ? low : high) = eps;
+    }
+    s = -sign * std::sqrt(2.0 / 3.0) * (a + b * std::pow(eps, n));
+  }
+  if (plastic_strain) *plastic_strain = eps;
+  const double deviator_xx = std::sqrt(2.0 / 3.0) * s;
+  return Eigen::Vector3d(bulk * strain + deviator_xx, bulk * strain - 0.5 * deviator_xx,
+                         bulk * strain - 0.5 * deviator_xx)
+      .asDiagonal();
+}
+
 /// Perfectly plastic Drucker-Prager (constants eta, xi, eta_bar of the model) in uniaxial
 /// strain compression (strain < 0), loaded monotonically: elastic until
 /// sqrt(J2) + eta p = xi c, then along the cone with

@@ -5,9 +5,10 @@
 // the closed-form responses of engine/validation/elastoplastic.hpp (J2 with linear
 // isotropic and kinematic hardening, Johnson-Cook, perfectly plastic Drucker-Prager in
 // compression). With no spin and a fixed principal frame the Jaumann rate integrates
-// the logarithmic strain exactly, so the closed forms hold at eps = rate t. The J2 cycle
-// scales G by a time table (1, then -1: v = f(t) G x, eps = rate int_0^t f): loaded to
-// ln(stretch) 0.15, unloaded and yielded in reverse to -0.05 (the Bauschinger effect).
+// the logarithmic strain exactly, so the closed forms hold at eps = rate t. The cycles
+// (J2, Johnson-Cook) scale G by a time table (1, then -1: v = f(t) G x, eps = rate int_0^t f): loaded to
+// ln(stretch) 0.15, unloaded and yielded in reverse to about -0.05 (the end on a whole
+// step; J2: the Bauschinger effect of the kinematic hardening).
 #include "engine/material/drucker_prager.hpp"
 #include "engine/time_function.hpp"
 #include "engine/validation/elastoplastic.hpp"
@@ -30,7 +31,7 @@ struct PlasticSpec {
   int dimension = 2;
   Model model = Model::j2;
   double log_strain = 0.15;  ///< ln(stretch) at the end (negative: compression)
-  double reverse_at = 0.0;   ///< J2 only: ln(stretch) of the load reversal (0: monotonic)
+  double reverse_at = 0.0;   ///< J2 and Johnson-Cook: ln(stretch) of the load reversal (0: monotonic)
 };
 
 constexpr double kReversal = 0.1;  ///< s: f(t) goes from 1 to -1 linearly over about this time
@@ -71,7 +72,8 @@ Eigen::Matrix3d reference(const PlasticSpec& s, const CaseFile& c, double e, dou
     case Model::j2:
       return elastoplastic::j2_uniaxial_strain_cycle(young, nu, kYield, kIsotropic, kKinematic, peak, reversed,
                                                      e, &plastic);
-    case Model::johnson_cook: return elastoplastic::johnson_cook_uniaxial_strain(young, nu, kA, kB, kN, e, &plastic);
+    case Model::johnson_cook:
+      return elastoplastic::johnson_cook_uniaxial_strain_cycle(young, nu, kA, kB, kN, peak, reversed, e, &plastic);
     case Model::drucker_prager: {
       typename DruckerPrager<3>::Parameters p;
       p.cohesion = kCohesion, p.friction_angle = kFriction, p.dilation_angle = kDilation;
@@ -185,11 +187,13 @@ std::vector<Case> plasticity_cases() {
   const std::vector<PlasticSpec> specs = {
       {"plastic_j2_2d", "J2, isotropic + kinematic hardening, uniaxial strain to ln 1.16, plane strain", 2, Model::j2, 0.15},
       {"plastic_j2_3d", "J2, isotropic + kinematic hardening, uniaxial strain to ln 1.16, 3D", 3, Model::j2, 0.15},
-      {"plastic_j2_cycle_2d", "J2, isotropic + kinematic hardening, uniaxial strain to ln 1.16, reversed to ln 0.95, plane strain",
+      {"plastic_j2_cycle_2d", "J2, isotropic + kinematic hardening, uniaxial strain to ln 1.16, reversed to about ln 0.95, plane strain",
        2, Model::j2, -0.05, 0.15},
-      {"plastic_j2_cycle_3d", "J2, isotropic + kinematic hardening, uniaxial strain to ln 1.16, reversed to ln 0.95, 3D", 3,
+      {"plastic_j2_cycle_3d", "J2, isotropic + kinematic hardening, uniaxial strain to ln 1.16, reversed to about ln 0.95, 3D", 3,
        Model::j2, -0.05, 0.15},
       {"plastic_johnson_cook_3d", "Johnson-Cook (A, B, n), uniaxial strain to ln 1.16, 3D", 3, Model::johnson_cook, 0.15},
+      {"plastic_johnson_cook_cycle_3d", "Johnson-Cook (A, B, n), uniaxial strain to ln 1.16, reversed to about ln 0.95, 3D", 3,
+       Model::johnson_cook, -0.05, 0.15},
       {"plastic_drucker_prager_2d", "Drucker-Prager (phi 20, psi 5), uniaxial strain compression to ln 0.86, plane strain",
        2, Model::drucker_prager, -0.15},
       {"plastic_drucker_prager_3d", "Drucker-Prager (phi 20, psi 5), uniaxial strain compression to ln 0.86, 3D", 3,
