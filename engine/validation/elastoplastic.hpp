@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cmath>
 
 namespace tsph::elastoplastic {
@@ -149,6 +150,20 @@ inline Eigen::Matrix3d drucker_prager_uniaxial_compression(double young, double 
   return Eigen::Vector3d(mean - 2.0 / std::sqrt(3.0) * root_j2, mean + root_j2 / std::sqrt(3.0),
                          mean + root_j2 / std::sqrt(3.0))
       .asDiagonal();
+}
+
+/// Perfectly plastic Drucker-Prager (constants eta, xi, eta_bar of the model, eta_bar > 0,
+/// no tension cut-off) under hydrostatic expansion to the volumetric strain `volumetric`:
+/// p = K eps_v up to the apex xi c / eta, then held there (s = 0) while the rest of the
+/// expansion is plastic, eps_p = (xi / eta_bar) (eps_v - xi c / (eta K)).
+inline Eigen::Matrix3d drucker_prager_hydrostatic_expansion(double young, double nu, double cohesion, double eta,
+                                                            double xi, double eta_bar, double volumetric,
+                                                            double* plastic_strain = nullptr) {
+  const double k = young / (3.0 * (1.0 - 2.0 * nu));
+  const double apex = xi * cohesion / eta;
+  const double plastic = std::max(0.0, volumetric - apex / k);
+  if (plastic_strain) *plastic_strain = xi / eta_bar * plastic;
+  return Eigen::Matrix3d::Identity() * std::min(k * volumetric, apex);
 }
 
 }  // namespace tsph::elastoplastic

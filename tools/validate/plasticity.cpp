@@ -4,7 +4,7 @@
 // first yield; the stress and the equivalent plastic strain of every particle against
 // the closed-form responses of engine/validation/elastoplastic.hpp (J2 with linear
 // isotropic and kinematic hardening, Johnson-Cook, perfectly plastic Drucker-Prager in
-// compression). With no spin and a fixed principal frame the Jaumann rate integrates
+// compression, and in hydrostatic expansion to its apex). With no spin and a fixed principal frame the Jaumann rate integrates
 // the logarithmic strain exactly, so the closed forms hold at eps = rate t. The cycles
 // (J2, Johnson-Cook) scale G by a time table (1, then -1: v = f(t) G x, eps = rate int_0^t f): loaded to
 // ln(stretch) 0.15, unloaded and yielded in reverse to about -0.05 (the end on a whole
@@ -32,6 +32,7 @@ struct PlasticSpec {
   Model model = Model::j2;
   double log_strain = 0.15;  ///< ln(stretch) at the end (negative: compression)
   double reverse_at = 0.0;   ///< J2 and Johnson-Cook: ln(stretch) of the load reversal (0: monotonic)
+  bool hydrostatic = false;  ///< Drucker-Prager, 3D: G = rate I (expansion to the apex), not uniaxial strain
 };
 
 constexpr double kReversal = 0.1;  ///< s: f(t) goes from 1 to -1 linearly over about this time
@@ -78,6 +79,9 @@ Eigen::Matrix3d reference(const PlasticSpec& s, const CaseFile& c, double e, dou
       typename DruckerPrager<3>::Parameters p;
       p.cohesion = kCohesion, p.friction_angle = kFriction, p.dilation_angle = kDilation;
       const DruckerPrager<3> model(LinearElastic<3>(young, nu, c.density), p);  // its cone constants
+      if (s.hydrostatic)  // e: the log stretch of each axis
+        return elastoplastic::drucker_prager_hydrostatic_expansion(young, nu, kCohesion, model.eta(), model.xi(),
+                                                                   model.eta_bar(), 3.0 * e, &plastic);
       return elastoplastic::drucker_prager_uniaxial_compression(young, nu, kCohesion, model.eta(), model.xi(),
                                                                 model.eta_bar(), e, &plastic);
     }
@@ -89,7 +93,7 @@ Result run_plastic(const PlasticSpec& s, const Options& o) {
   const bool cycle = s.reverse_at != 0.0;
   const double rate = std::copysign(kRate, cycle ? s.reverse_at : s.log_strain);
   std::vector<double> g(static_cast<std::size_t>(s.dimension * s.dimension), 0.0);
-  g[0] = rate;
+  for (int d = 0; d < (s.hydrostatic ? s.dimension : 1); ++d) g[static_cast<std::size_t>(d * (s.dimension + 1))] = rate;
   std::vector<std::string> overrides = {"boundary.0.velocity_gradient=" + toml_array(g),
                                         "initial.velocity_gradient=" + toml_array(g)};
   for (auto& m : material_overrides(s.model)) overrides.push_back(m);
@@ -198,6 +202,8 @@ std::vector<Case> plasticity_cases() {
        2, Model::drucker_prager, -0.15},
       {"plastic_drucker_prager_3d", "Drucker-Prager (phi 20, psi 5), uniaxial strain compression to ln 0.86, 3D", 3,
        Model::drucker_prager, -0.15},
+      {"plastic_drucker_prager_apex_3d", "Drucker-Prager (phi 20, psi 5), hydrostatic expansion to J = 1.16: the apex, 3D",
+       3, Model::drucker_prager, 0.05, 0.0, true},
   };
   std::vector<Case> cases;
   for (const auto& s : specs)
