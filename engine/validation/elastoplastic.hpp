@@ -152,6 +152,35 @@ inline Eigen::Matrix3d drucker_prager_uniaxial_compression(double young, double 
       .asDiagonal();
 }
 
+/// The same compressed to `peak` (< 0) and then, if `reversed`, strained back to `strain`
+/// (> peak): with r the signed sqrt(J2) (positive for extension along x; -root J2 on the
+/// compression cone), elastic unloading r = r_peak + (2G / sqrt 3) de, p = p_peak + K de
+/// until the extension side of the cone, r + eta p = xi c (r > 0), then along it with
+///   d lambda = (2G / sqrt 3 + eta K) de / (G + K eta eta_bar)
+/// (valid while p stays below the apex xi c / eta).
+inline Eigen::Matrix3d drucker_prager_uniaxial_cycle(double young, double nu, double cohesion, double eta, double xi,
+                                                     double eta_bar, double peak, bool reversed, double strain,
+                                                     double* plastic_strain = nullptr) {
+  if (!reversed)
+    return drucker_prager_uniaxial_compression(young, nu, cohesion, eta, xi, eta_bar, strain, plastic_strain);
+  const double g = young / (2.0 * (1.0 + nu)), k = young / (3.0 * (1.0 - 2.0 * nu));
+  double plastic_peak = 0.0;
+  const Eigen::Matrix3d at_peak =
+      drucker_prager_uniaxial_compression(young, nu, cohesion, eta, xi, eta_bar, peak, &plastic_peak);
+  const double p_peak = at_peak.trace() / 3.0;
+  const double r_peak = std::sqrt(3.0) / 2.0 * (at_peak(0, 0) - p_peak);  // sigma_xx = p + (2 / sqrt 3) r
+  const double de = strain - peak, rise = 2.0 * g / std::sqrt(3.0);
+  const double de_yield = (xi * cohesion - r_peak - eta * p_peak) / (rise + eta * k);
+  double r = r_peak + rise * de, p = p_peak + k * de, lambda = 0.0;
+  if (de > de_yield) {
+    lambda = (rise + eta * k) * (de - de_yield) / (g + k * eta * eta_bar);
+    r -= g * lambda;
+    p -= k * eta_bar * lambda;
+  }
+  if (plastic_strain) *plastic_strain = plastic_peak + xi * lambda;
+  return Eigen::Vector3d(p + 2.0 / std::sqrt(3.0) * r, p - r / std::sqrt(3.0), p - r / std::sqrt(3.0)).asDiagonal();
+}
+
 /// Perfectly plastic Drucker-Prager (constants eta, xi, eta_bar of the model, eta_bar > 0,
 /// no tension cut-off) under hydrostatic expansion to the volumetric strain `volumetric`:
 /// p = K eps_v up to the apex xi c / eta, then held there (s = 0) while the rest of the

@@ -6,9 +6,10 @@
 // isotropic and kinematic hardening, Johnson-Cook, perfectly plastic Drucker-Prager in
 // compression, and in hydrostatic expansion to its apex). With no spin and a fixed principal frame the Jaumann rate integrates
 // the logarithmic strain exactly, so the closed forms hold at eps = rate t. The cycles
-// (J2, Johnson-Cook) scale G by a time table (1, then -1: v = f(t) G x, eps = rate int_0^t f): loaded to
+// (J2, Johnson-Cook, Drucker-Prager) scale G by a time table (1, then -1: v = f(t) G x, eps = rate int_0^t f): loaded to
 // ln(stretch) 0.15, unloaded and yielded in reverse to about -0.05 (the end on a whole
-// step; J2: the Bauschinger effect of the kinematic hardening).
+// step; J2: the Bauschinger effect of the kinematic hardening); Drucker-Prager compressed
+// to -0.15 and reversed to about 0.02, where it yields on the cone's extension side.
 #include "engine/material/drucker_prager.hpp"
 #include "engine/time_function.hpp"
 #include "engine/validation/elastoplastic.hpp"
@@ -31,7 +32,7 @@ struct PlasticSpec {
   int dimension = 2;
   Model model = Model::j2;
   double log_strain = 0.15;  ///< ln(stretch) at the end (negative: compression)
-  double reverse_at = 0.0;   ///< J2 and Johnson-Cook: ln(stretch) of the load reversal (0: monotonic)
+  double reverse_at = 0.0;   ///< ln(stretch) of the load reversal (0: monotonic)
   bool hydrostatic = false;  ///< Drucker-Prager, 3D: G = rate I (expansion to the apex), not uniaxial strain
 };
 
@@ -82,8 +83,8 @@ Eigen::Matrix3d reference(const PlasticSpec& s, const CaseFile& c, double e, dou
       if (s.hydrostatic)  // e: the log stretch of each axis
         return elastoplastic::drucker_prager_hydrostatic_expansion(young, nu, kCohesion, model.eta(), model.xi(),
                                                                    model.eta_bar(), 3.0 * e, &plastic);
-      return elastoplastic::drucker_prager_uniaxial_compression(young, nu, kCohesion, model.eta(), model.xi(),
-                                                                model.eta_bar(), e, &plastic);
+      return elastoplastic::drucker_prager_uniaxial_cycle(young, nu, kCohesion, model.eta(), model.xi(),
+                                                          model.eta_bar(), peak, reversed, e, &plastic);
     }
   }
   return Eigen::Matrix3d::Zero();
@@ -202,6 +203,12 @@ std::vector<Case> plasticity_cases() {
        2, Model::drucker_prager, -0.15},
       {"plastic_drucker_prager_3d", "Drucker-Prager (phi 20, psi 5), uniaxial strain compression to ln 0.86, 3D", 3,
        Model::drucker_prager, -0.15},
+      {"plastic_drucker_prager_cycle_2d",
+       "Drucker-Prager (phi 20, psi 5), uniaxial strain compression to ln 0.86, reversed to about ln 1.02 (yielding in "
+       "extension), plane strain", 2, Model::drucker_prager, 0.02, -0.15},
+      {"plastic_drucker_prager_cycle_3d",
+       "Drucker-Prager (phi 20, psi 5), uniaxial strain compression to ln 0.86, reversed to about ln 1.02 (yielding in "
+       "extension), 3D", 3, Model::drucker_prager, 0.02, -0.15},
       {"plastic_drucker_prager_apex_3d", "Drucker-Prager (phi 20, psi 5), hydrostatic expansion to J = 1.16: the apex, 3D",
        3, Model::drucker_prager, 0.05, 0.0, true},
   };
