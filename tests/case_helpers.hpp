@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <filesystem>
@@ -132,6 +133,38 @@ inline LastFrame run_case_text(const std::string& text, const std::string& name,
   const RunReport r = run_case(c, options);
   if (report) *report = r;
   return last;
+}
+
+/// Runs a case text with checkpoints every `every` steps into `checkpoint_dir`, then
+/// continues it from its first checkpoint into `out_dir`: the continued run's last frame
+/// (a restart test compares it with the uninterrupted run's).
+inline LastFrame resume_from_first_checkpoint(const std::string& text, const std::vector<std::string>& overrides,
+                                              int every, const std::filesystem::path& checkpoint_dir,
+                                              const std::string& out_dir) {
+  std::vector<std::string> with_checkpoints = overrides;
+  with_checkpoints.push_back("output.checkpoint_every=" + std::to_string(every));
+  RunOptions options;
+  options.out_dir = checkpoint_dir.string();
+  options.quiet = true;
+  run_case(load_case_text(text, "restart.toml", with_checkpoints), options);
+  std::vector<std::string> checkpoints;
+  for (const auto& entry : std::filesystem::directory_iterator(checkpoint_dir))
+    if (entry.path().filename().string().rfind("checkpoint_", 0) == 0) checkpoints.push_back(entry.path().string());
+  std::sort(checkpoints.begin(), checkpoints.end());
+  if (checkpoints.empty()) {
+    ADD_FAILURE() << "the run wrote no checkpoint in " << checkpoint_dir;
+    return {};
+  }
+  options.out_dir = out_dir;
+  options.restart = checkpoints.front();
+  LastFrame resumed;
+  options.on_frame = [&](const output::VtuFrame& f, double) {
+    resumed.points = f.points;
+    resumed.count = f.point_count;
+    for (const auto& a : f.arrays) resumed.arrays[a.name] = a.float64;
+  };
+  run_case(load_case_text(text, "restart.toml", overrides), options);
+  return resumed;
 }
 
 }  // namespace tsph::testing_cases

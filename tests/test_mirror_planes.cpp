@@ -223,30 +223,10 @@ void expect_restart_bit_for_bit(bool quarter) {
                                         "time.adaptive=true"};
   const std::string tag = quarter ? "_quarter" : "_whole";
   const LastFrame straight = run_text(rod_text(quarter), "restart_straight" + tag, method);
-  const std::filesystem::path dir = fresh_directory("restart_checkpoints" + tag);
-  {
-    std::vector<std::string> with_checkpoints = method;
-    with_checkpoints.push_back("output.checkpoint_every=25");
-    RunOptions options;
-    options.out_dir = dir.string();
-    options.quiet = true;
-    run_case(load_case_text(rod_text(quarter), "restart.toml", with_checkpoints), options);
-  }
-  std::vector<std::string> checkpoints;
-  for (const auto& entry : std::filesystem::directory_iterator(dir))
-    if (entry.path().filename().string().rfind("checkpoint_", 0) == 0) checkpoints.push_back(entry.path().string());
-  std::sort(checkpoints.begin(), checkpoints.end());
-  ASSERT_FALSE(checkpoints.empty()) << "the run wrote no checkpoint";
-  RunOptions options;
-  options.out_dir = fresh_directory("restart_continued" + tag).string();
-  options.quiet = true;
-  options.restart = checkpoints.front();
-  LastFrame resumed;
-  options.on_frame = [&](const output::VtuFrame& f, double) {
-    resumed.points = f.points;
-    for (const auto& a : f.arrays) resumed.arrays[a.name] = a.float64;
-  };
-  run_case(load_case_text(rod_text(quarter), "restart.toml", method), options);
+  const LastFrame resumed = testing_cases::resume_from_first_checkpoint(
+      rod_text(quarter), method, 25, fresh_directory("restart_checkpoints" + tag),
+      fresh_directory("restart_continued" + tag).string());
+  ASSERT_FALSE(resumed.points.empty());
   EXPECT_EQ(resumed.points, straight.points);
   for (const char* name : {"velocity", "stress", "plastic_strain", "plastic_work"})
     EXPECT_EQ(resumed.arrays.at(name), straight.arrays.at(name)) << name;

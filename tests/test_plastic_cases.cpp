@@ -505,32 +505,9 @@ TEST(PlasticRun, StateInFramesAndRestartBitForBit) {
   EXPECT_GT(*std::max_element(whole.arrays.at("plastic_work").begin(), whole.arrays.at("plastic_work").end()), 0.0);
 
   // The same run with checkpoints every 30 steps (of 87), continued from the first one.
-  const std::filesystem::path dir = fresh_directory("restart");
-  {
-    std::vector<std::string> with_checkpoints = plastic;
-    with_checkpoints.push_back("output.checkpoint_every=30");
-    const CaseFile c = load_case_text(kStrip, "restart.toml", with_checkpoints);
-    RunOptions options;
-    options.out_dir = dir.string();
-    options.quiet = true;
-    run_case(c, options);
-  }
-  std::vector<std::string> checkpoints;
-  for (const auto& entry : std::filesystem::directory_iterator(dir))
-    if (entry.path().filename().string().rfind("checkpoint_", 0) == 0) checkpoints.push_back(entry.path().string());
-  std::sort(checkpoints.begin(), checkpoints.end());
-  ASSERT_FALSE(checkpoints.empty()) << "the run wrote no checkpoint";
-  const CaseFile c = load_case_text(kStrip, "restart.toml", plastic);
-  RunOptions options;
-  options.out_dir = fresh_directory("continued").string();
-  options.quiet = true;
-  options.restart = checkpoints.front();
-  LastFrame resumed;
-  options.on_frame = [&](const output::VtuFrame& f, double) {
-    resumed.count = f.point_count;
-    for (const auto& a : f.arrays) resumed.arrays[a.name] = a.float64;
-  };
-  run_case(c, options);
+  const LastFrame resumed = testing_cases::resume_from_first_checkpoint(kStrip, plastic, 30, fresh_directory("restart"),
+                                                                        fresh_directory("continued").string());
+  ASSERT_EQ(resumed.count, whole.count);
   for (const char* name : {"stress", "plastic_strain", "plastic_work"})
     EXPECT_EQ(resumed.arrays.at(name), whole.arrays.at(name)) << name;
 }
