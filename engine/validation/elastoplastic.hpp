@@ -43,12 +43,17 @@ struct LinearHardeningPath {
 };
 
 /// J2 with linear hardening in uniaxial strain eps_xx = strain (2D plane strain, 3D),
-/// loaded monotonically from rest: the stress tensor; `plastic_strain` gets eps_p.
-inline Eigen::Matrix3d j2_uniaxial_strain(double young, double nu, double yield, double iso, double kin, double strain,
-                                          double* plastic_strain = nullptr) {
+/// loaded to `peak` and then, if `reversed`, strained back to `strain` (unloading, then
+/// reverse yielding: the Bauschinger effect with kinematic hardening); else loaded
+/// monotonically to `strain`. The stress tensor; `plastic_strain` gets eps_p.
+inline Eigen::Matrix3d j2_uniaxial_strain_cycle(double young, double nu, double yield, double iso, double kin,
+                                                double peak, bool reversed, double strain,
+                                                double* plastic_strain = nullptr) {
   const double mu = young / (2.0 * (1.0 + nu)), bulk = young / (3.0 * (1.0 - 2.0 * nu));
   LinearHardeningPath path{2.0 * mu, std::sqrt(2.0 / 3.0), 2.0 / 3.0, std::sqrt(2.0 / 3.0), yield, iso, kin};
-  path.advance(std::sqrt(2.0 / 3.0) * strain);  // |dev eps| along N = (2, -1, -1) / sqrt(6)
+  if (!reversed) peak = strain;
+  path.advance(std::sqrt(2.0 / 3.0) * peak);  // |dev eps| along N = (2, -1, -1) / sqrt(6)
+  path.advance(std::sqrt(2.0 / 3.0) * (strain - peak));
   if (plastic_strain) *plastic_strain = path.eps;
   const double deviator_xx = std::sqrt(2.0 / 3.0) * path.s;
   return Eigen::Vector3d(bulk * strain + deviator_xx, bulk * strain - 0.5 * deviator_xx,
@@ -56,21 +61,10 @@ inline Eigen::Matrix3d j2_uniaxial_strain(double young, double nu, double yield,
       .asDiagonal();
 }
 
-/// The same loaded to `peak` and then, if `reversed`, strained back to `strain` (unloading,
-/// then reverse yielding: the Bauschinger effect with kinematic hardening).
-inline Eigen::Matrix3d j2_uniaxial_strain_cycle(double young, double nu, double yield, double iso, double kin,
-                                                double peak, bool reversed, double strain,
-                                                double* plastic_strain = nullptr) {
-  if (!reversed) return j2_uniaxial_strain(young, nu, yield, iso, kin, strain, plastic_strain);
-  const double mu = young / (2.0 * (1.0 + nu)), bulk = young / (3.0 * (1.0 - 2.0 * nu));
-  LinearHardeningPath path{2.0 * mu, std::sqrt(2.0 / 3.0), 2.0 / 3.0, std::sqrt(2.0 / 3.0), yield, iso, kin};
-  path.advance(std::sqrt(2.0 / 3.0) * peak);
-  path.advance(std::sqrt(2.0 / 3.0) * (strain - peak));
-  if (plastic_strain) *plastic_strain = path.eps;
-  const double deviator_xx = std::sqrt(2.0 / 3.0) * path.s;
-  return Eigen::Vector3d(bulk * strain + deviator_xx, bulk * strain - 0.5 * deviator_xx,
-                         bulk * strain - 0.5 * deviator_xx)
-      .asDiagonal();
+/// The same loaded monotonically from rest to `strain`.
+inline Eigen::Matrix3d j2_uniaxial_strain(double young, double nu, double yield, double iso, double kin, double strain,
+                                          double* plastic_strain = nullptr) {
+  return j2_uniaxial_strain_cycle(young, nu, yield, iso, kin, strain, false, strain, plastic_strain);
 }
 
 /// Johnson-Cook strength without rate and temperature terms, Y = A + B eps_p^n, in
