@@ -20,7 +20,15 @@
 //        sqrt(J2_tr) - G dgamma + eta (p_tr - K eta_bar dgamma) - xi c(eps_p + xi dgamma)
 //          - [Perzyna] xi c0 (dgamma / (dt fluidity))^(1/N) = 0,
 //      then s = (1 - G dgamma / sqrt(J2_tr)) s_tr, p = p_tr - K eta_bar dgamma,
-//      eps_p += xi dgamma; valid while sqrt(J2_tr) >= G dgamma;
+//      eps_p += xi dgamma; valid while sqrt(J2_tr) >= G dgamma. The stress update (not the
+//      characteristic boundary's return) takes the deviatoric direction at the step's
+//      midpoint instead, as J2Plasticity does (j2_plasticity.hpp): n along s_tr + s_c, s_c
+//      where the step's elastic path sigma^n -> sigma_tr leaves the cone, s = s_tr -
+//      sqrt(2) G dgamma n, and dgamma from
+//        sqrt(J2_tr - 2 sqrt(J2_tr) cos G dgamma + G^2 dgamma^2) + eta (p_tr - K eta_bar
+//          dgamma) - xi c(eps_p + xi dgamma) [- Perzyna] = 0,   cos = s_tr : n / |s_tr|
+//      (second order in dt where the spin turns the deviator; radial where the cut-off
+//      acted or the midpoint return would pass the apex);
 //   3. otherwise the apex (s = 0): the volumetric plastic strain de_v solves
 //        p_tr - K de_v = (xi / eta) [c(eps_p + (xi / eta_bar) de_v) + Perzyna term],
 //      eps_p += (xi / eta_bar) de_v.
@@ -113,11 +121,14 @@ class DruckerPrager {
     const StressVector<Dim> rate = elastic_.stress_rate(in.velocity_gradient, in.rate_stress, in.objective);
     StressVector<Dim> trial;
     for (int m = 0; m < stress_component_count<Dim>; ++m) trial[m] = in.stress[m] + in.dt * rate[m];
-    return return_map(trial, state, in.dt);
+    return return_map(trial, state, in.dt, &in.stress);
   }
 
-  /// Steps 1-3 of the file comment: the return of an elastic trial stress reached over dt.
-  StressVector<Dim> return_map(const StressVector<Dim>& trial, PlasticState& state, double dt) const {
+  /// Steps 1-3 of the file comment: the return of an elastic trial stress reached over
+  /// dt; with the step's start sigma^n (`start`), the cone return along the midpoint
+  /// deviatoric direction, else radially.
+  StressVector<Dim> return_map(const StressVector<Dim>& trial, PlasticState& state, double dt,
+                               const StressVector<Dim>* start = nullptr) const {
     state.yielding = false;
     const Eigen::Matrix3d sigma = to_tensor<Dim>(trial);
     double mean = sigma.trace() / 3.0;
@@ -131,6 +142,7 @@ class DruckerPrager {
     double cutoff = p_.tension_cutoff;
     if (eta_bar_ == 0.0 && eta_ > 0.0) cutoff = std::min(cutoff, xi_ * cohesion(eps) / eta_);
     if (mean > cutoff) {
+      start = nullptr;  // the cone's return from the cut-off's stress: radial
       const double volumetric = (mean - cutoff) / bulk;  // plastic tr(d eps^p)
       mean = cutoff;
       work += mean * volumetric;
@@ -142,27 +154,42 @@ class DruckerPrager {
     if (f_trial > 0.0) {
       state.yielding = true;
       const double slope_elastic = shear + bulk * eta_ * eta_bar_ + xi_ * xi_ * p_.hardening;
-      double dgamma = 0.0;
-      if (!perzyna_) {
-        dgamma = f_trial / slope_elastic;
-      } else {
-        const double c0 = p_.cohesion, scale = dt * perzyna_->fluidity,
-                     power = 1.0 / perzyna_->exponent;
-        dgamma = decreasing_root(
-            [&](double x, double& slope) {
-              const double viscous = xi_ * c0 * std::pow(x / scale, power);
-              slope = -slope_elastic - (x > 0.0 ? power * viscous / x : 0.0);
-              return f_trial - slope_elastic * x - viscous;
-            },
-            f_trial / slope_elastic);
+      // With the step's start: along the midpoint deviatoric direction (file comment),
+      // where that return stays on the cone's side of the apex; else radially.
+      double dgamma = std::numeric_limits<double>::quiet_NaN();
+      Eigen::Matrix3d direction =
+          root_j2 > 0.0 ? Eigen::Matrix3d(dev / (std::sqrt(2.0) * root_j2)) : Eigen::Matrix3d::Zero();
+      const double target = xi_ * cohesion(eps) - eta_ * mean;  // sqrt(J2) on the cone at dgamma = 0
+      if (start && target > 0.0 && root_j2 > 0.0) {
+        const Eigen::Matrix3d midpoint = midpoint_direction(to_tensor<Dim>(*start), dev, mean, eps);
+        const double alignment = dev.cwiseProduct(midpoint).sum() / (std::sqrt(2.0) * root_j2);
+        dgamma = cone_increment(root_j2, alignment, target, slope_elastic - shear, dt);
+        if (std::isfinite(dgamma)) direction = midpoint;
       }
-      // With psi = 0 the cut-off has kept p at or below the apex, and the cone return is
-      // valid up to round-off.
-      if (root_j2 - shear * dgamma >= 0.0 || eta_bar_ == 0.0) {
-        dev *= root_j2 > 0.0 ? std::max(0.0, 1.0 - shear * dgamma / root_j2) : 0.0;
+      if (!std::isfinite(dgamma)) {
+        if (!perzyna_) {
+          dgamma = f_trial / slope_elastic;
+        } else {
+          const double c0 = p_.cohesion, scale = dt * perzyna_->fluidity, power = 1.0 / perzyna_->exponent;
+          dgamma = decreasing_root(
+              [&](double x, double& slope) {
+                const double viscous = xi_ * c0 * std::pow(x / scale, power);
+                slope = -slope_elastic - (x > 0.0 ? power * viscous / x : 0.0);
+                return f_trial - slope_elastic * x - viscous;
+              },
+              f_trial / slope_elastic);
+        }
+        // With psi = 0 the cut-off has kept p at or below the apex, and the cone return is
+        // valid up to round-off.
+        if (!(root_j2 - shear * dgamma >= 0.0 || eta_bar_ == 0.0)) dgamma = -1.0;  // past the apex
+      }
+      if (dgamma >= 0.0) {
+        // s = s_tr - 2 mu dgamma n / sqrt(2) (the deviatoric flow n / sqrt(2), |n| = 1),
+        // no further than the apex.
+        dev -= std::min(std::sqrt(2.0) * shear * dgamma, dev.cwiseProduct(direction).sum()) * direction;
         mean -= bulk * eta_bar_ * dgamma;
         eps += xi_ * dgamma;
-        work += dgamma * (std::sqrt(0.5 * dev.squaredNorm()) + eta_bar_ * mean);
+        work += dgamma * (dev.cwiseProduct(direction).sum() / std::sqrt(2.0) + eta_bar_ * mean);  // sigma : d eps^p
       } else {
         // 3. Apex (eta_bar > 0 here: with psi = 0 the cut-off kept p at or below it).
         const double alpha = xi_ / eta_bar_, beta = xi_ / eta_;
@@ -196,6 +223,67 @@ class DruckerPrager {
   }
 
  private:
+  /// The deviatoric flow direction of the midpoint rule (file comment): along s_tr + s_c,
+  /// s_c the deviator where the segment sigma^n -> sigma_tr leaves the cone f = 0 (its
+  /// larger crossing in [0, 1]; sigma^n itself when the step starts on or outside the
+  /// cone and moves out). On the segment sigma^n + t (sigma_tr - sigma^n),
+  ///   |s^n + t ds|^2 = 2 (xi c - eta (p^n + t dp))^2,  with xi c - eta p >= 0.
+  Eigen::Matrix3d midpoint_direction(const Eigen::Matrix3d& start, const Eigen::Matrix3d& trial_deviator,
+                                     double trial_mean, double eps) const {
+    const Eigen::Matrix3d s0 = deviator(start), ds = trial_deviator - s0;
+    const double p0 = start.trace() / 3.0, dp = trial_mean - p0, q0 = xi_ * cohesion(eps) - eta_ * p0;
+    const double a = ds.squaredNorm() - 2.0 * eta_ * eta_ * dp * dp;
+    const double b = s0.cwiseProduct(ds).sum() + 2.0 * eta_ * dp * q0;  // half the linear coefficient
+    const double c = s0.squaredNorm() - 2.0 * q0 * q0;
+    double leaves = 0.0;
+    const auto consider = [&](double t) {
+      if (t >= 0.0 && t <= 1.0 && q0 - eta_ * dp * t >= 0.0) leaves = std::max(leaves, t);
+    };
+    if (a != 0.0) {
+      if (const double discriminant = b * b - a * c; discriminant >= 0.0) {
+        const double root = std::sqrt(discriminant);
+        const double q = -(b + std::copysign(root, b));  // the two roots q / a and c / q
+        if (q != 0.0) consider(c / q);
+        consider(q / a);
+      }
+    } else if (b != 0.0) {
+      consider(-0.5 * c / b);
+    }
+    const Eigen::Matrix3d sum = trial_deviator + s0 + leaves * ds;
+    return sum / sum.norm();
+  }
+
+  /// The cone return's dgamma along a deviatoric direction at `alignment` (cos) with s_tr:
+  /// sqrt(J2) = sqrt(r^2 - 2 r cos mu dgamma + mu^2 dgamma^2) = target + slope dgamma
+  /// [+ Perzyna's xi c0 (dgamma / (dt fluidity))^(1/N)], r = sqrt(J2_tr), target =
+  /// xi c(eps_p) - eta p_tr, slope = K eta eta_bar + xi^2 H; the root short of the point
+  /// closest to the apex's axis (dgamma <= r cos / mu). NaN where there is none.
+  double cone_increment(double root_j2, double alignment, double target, double slope, double dt) const {
+    const double shear = elastic_.shear_modulus(), along = root_j2 * alignment;
+    const double farthest = along / shear;
+    if (!(farthest > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+    if (!perzyna_) {  // the smaller root of (mu^2 - slope^2) x^2 - 2 (r cos mu + target slope) x + r^2 - target^2
+      const double half_b = along * shear + target * slope;
+      const double constant = (root_j2 - target) * (root_j2 + target);
+      const double discriminant = half_b * half_b - (shear * shear - slope * slope) * constant;
+      if (!(discriminant >= 0.0 && half_b > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+      const double x = constant / (half_b + std::sqrt(discriminant));
+      return x <= farthest ? x : std::numeric_limits<double>::quiet_NaN();
+    }
+    const double c0 = p_.cohesion, scale = dt * perzyna_->fluidity, power = 1.0 / perzyna_->exponent;
+    const auto residual = [&](double x, double& derivative) {
+      const double distance =
+          std::sqrt(std::max(0.0, root_j2 * root_j2 - 2.0 * along * shear * x + shear * shear * x * x));
+      const double viscous = xi_ * c0 * std::pow(x / scale, power);
+      derivative = (distance > 0.0 ? shear * (shear * x - along) / distance : 0.0) - slope -
+                   (x > 0.0 ? power * viscous / x : 0.0);
+      return distance - target - slope * x - viscous;
+    };
+    double unused = 0.0;
+    if (!(residual(farthest, unused) < 0.0)) return std::numeric_limits<double>::quiet_NaN();
+    return decreasing_root(residual, farthest);
+  }
+
   void cone_constants(double angle, double& eta, double& xi) const {
     switch (p_.cone) {
       case Cone::plane_strain: {

@@ -61,15 +61,6 @@ inline Eigen::Matrix3d deviator(const Eigen::Matrix3d& t) {
   return t - (t.trace() / 3.0) * Eigen::Matrix3d::Identity();
 }
 
-/// The Jaumann rotation of a tensor over dt with the spin of L (3x3, zero out of plane
-/// in 2D): A + dt (W A - A W), the same forward form the stress's elastic predictor uses
-/// (LinearElastic::stress_rate).
-inline Eigen::Matrix3d jaumann_rotated(const Eigen::Matrix3d& a, const Eigen::Matrix3d& grad_v,
-                                       double dt) {
-  const Eigen::Matrix3d spin = 0.5 * (grad_v - grad_v.transpose());
-  return a + dt * (spin * a - a * spin);
-}
-
 /// Checks a material parameter: finite and >= `minimum` (or > when `strict`).
 inline void check_parameter(const char* model, const char* name, double value, double minimum,
                             bool strict, const char* fix) {

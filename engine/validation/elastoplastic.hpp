@@ -189,4 +189,127 @@ inline Eigen::Matrix3d drucker_prager_hydrostatic_expansion(double young, double
   return Eigen::Matrix3d::Identity() * std::min(k * volumetric, apex);
 }
 
+/// The state of the rate equations below: stress, back stress, equivalent plastic strain.
+struct RateState {
+  Eigen::Matrix3d stress = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d back_stress = Eigen::Matrix3d::Zero();
+  double plastic_strain = 0.0;
+};
+
+/// J2 with linear isotropic and kinematic hardening as rate equations (Jaumann rates;
+/// Simo & Hughes 1998, ch. 3), rate of deformation D, spin W:
+///   dsigma/dt = lambda tr(D - lambda_dot n) I + 2 mu (D - lambda_dot n) + W sigma - sigma W,
+///   dalpha/dt = 2/3 H_kin lambda_dot n + W alpha - alpha W,  deps_p/dt = sqrt(2/3) lambda_dot,
+///   n = xi / |xi|, xi = dev(sigma) - alpha,
+///   lambda_dot = 2 mu n : D / (2 mu + 2/3 (H_kin + H_iso)) on the yield surface (0 below it,
+///   or when unloading), |xi| = sqrt(2/3) (Y0 + H_iso eps_p).
+struct J2Rates {
+  double young, nu, yield, iso, kin;
+  double yield_function(const RateState& y) const {
+    return std::sqrt(1.5) * ((y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()) - y.back_stress).norm() -
+           (yield + iso * y.plastic_strain);
+  }
+  RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
+    const double mu = young / (2.0 * (1.0 + nu)), lame = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    Eigen::Matrix3d elastic_d = d, flow = Eigen::Matrix3d::Zero();
+    double multiplier = 0.0;
+    if (plastic) {
+      const Eigen::Matrix3d xi = (y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()) - y.back_stress;
+      flow = xi / xi.norm();
+      multiplier = std::max(0.0, 2.0 * mu * flow.cwiseProduct(d).sum() / (2.0 * mu + 2.0 / 3.0 * (kin + iso)));
+      elastic_d -= multiplier * flow;
+    }
+    RateState r;
+    r.stress = lame * elastic_d.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * elastic_d + w * y.stress - y.stress * w;
+    r.back_stress = 2.0 / 3.0 * kin * multiplier * flow + w * y.back_stress - y.back_stress * w;
+    r.plastic_strain = std::sqrt(2.0 / 3.0) * multiplier;
+    return r;
+  }
+};
+
+/// Drucker-Prager (engine/material/drucker_prager.hpp) as rate equations: cohesion
+/// c = c0 + H eps_p, yield f = sqrt(J2) + eta p - xi c, potential g = sqrt(J2) + eta_bar p,
+/// m = dg/dsigma = s / (2 sqrt(J2)) + eta_bar / 3 I, on the cone (de Souza Neto et al. 2008, ch. 8)
+///   dsigma/dt = C : (D - lambda_dot m) + W sigma - sigma W,  deps_p/dt = xi lambda_dot,
+///   lambda_dot = (mu s : D / sqrt(J2) + eta K tr D) / (mu + K eta eta_bar + xi^2 H)
+/// (0 below the cone or when unloading; the cone, not its apex).
+struct DruckerPragerRates {
+  double young, nu, cohesion, hardening, eta, xi, eta_bar;
+  double yield_function(const RateState& y) const {
+    const Eigen::Matrix3d s = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
+    return std::sqrt(0.5 * s.squaredNorm()) + eta * y.stress.trace() / 3.0 - xi * (cohesion + hardening * y.plastic_strain);
+  }
+  RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
+    const double mu = young / (2.0 * (1.0 + nu)), lame = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    const double bulk = lame + 2.0 * mu / 3.0;
+    Eigen::Matrix3d elastic_d = d;
+    double multiplier = 0.0;
+    if (plastic) {
+      const Eigen::Matrix3d s = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
+      const double root_j2 = std::sqrt(0.5 * s.squaredNorm());
+      multiplier = std::max(0.0, (mu * s.cwiseProduct(d).sum() / root_j2 + eta * bulk * d.trace()) /
+                                     (mu + bulk * eta * eta_bar + xi * xi * hardening));
+      elastic_d -= multiplier * (s / (2.0 * root_j2) + eta_bar / 3.0 * Eigen::Matrix3d::Identity());
+    }
+    RateState r;
+    r.stress = lame * elastic_d.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * elastic_d + w * y.stress - y.stress * w;
+    r.back_stress.setZero();
+    r.plastic_strain = xi * multiplier;
+    return r;
+  }
+};
+
+/// A model's rate equations (J2Rates, ...) under a constant velocity gradient L (3x3),
+/// from a stress-free virgin state over the time t: the reference of paths whose flow
+/// direction turns (simple shear: the spin turns the stress), which have no closed form.
+/// Classical Runge-Kutta (RK4) with `steps` steps; the elastic phase's step that crosses
+/// the yield surface is bisected to the onset, so that the rates' kink falls on a step
+/// boundary and the order holds (tests/test_plasticity.cpp: 2e3 and 4e3 steps agree to
+/// ~1e-13).
+template <class Rates>
+RateState integrate_constant_gradient(const Rates& model, const Eigen::Matrix3d& grad_v, double t, int steps) {
+  const Eigen::Matrix3d d = 0.5 * (grad_v + grad_v.transpose()), w = 0.5 * (grad_v - grad_v.transpose());
+  const auto advance = [&](const RateState& y, double h, const RateState& k, double factor) {
+    RateState next = y;
+    next.stress += factor * h * k.stress;
+    next.back_stress += factor * h * k.back_stress;
+    next.plastic_strain += factor * h * k.plastic_strain;
+    return next;
+  };
+  const auto rk4 = [&](const RateState& y, double h, bool plastic) {
+    const RateState k1 = model.rates(y, d, w, plastic);
+    const RateState k2 = model.rates(advance(y, h, k1, 0.5), d, w, plastic);
+    const RateState k3 = model.rates(advance(y, h, k2, 0.5), d, w, plastic);
+    const RateState k4 = model.rates(advance(y, h, k3, 1.0), d, w, plastic);
+    RateState next = y;
+    next.stress += h / 6.0 * (k1.stress + 2.0 * k2.stress + 2.0 * k3.stress + k4.stress);
+    next.back_stress += h / 6.0 * (k1.back_stress + 2.0 * k2.back_stress + 2.0 * k3.back_stress + k4.back_stress);
+    next.plastic_strain +=
+        h / 6.0 * (k1.plastic_strain + 2.0 * k2.plastic_strain + 2.0 * k3.plastic_strain + k4.plastic_strain);
+    return next;
+  };
+  RateState y;
+  const double h = t / steps;
+  double time = 0.0;
+  bool plastic = false;
+  while (t - time > 1e-12 * t) {
+    const double step = std::min(h, t - time);
+    const RateState next = rk4(y, step, plastic);
+    if (!plastic && model.yield_function(next) > 0.0) {  // to the onset, then on plastically
+      double inside = 0.0, outside = step;
+      for (int i = 0; i < 200 && outside - inside > 1e-16 * outside; ++i) {
+        const double mid = 0.5 * (inside + outside);
+        (model.yield_function(rk4(y, mid, false)) > 0.0 ? outside : inside) = mid;
+      }
+      y = rk4(y, inside, false);
+      time += inside;
+      plastic = true;
+      continue;
+    }
+    y = next;
+    time += step;
+  }
+  return y;
+}
+
 }  // namespace tsph::elastoplastic
