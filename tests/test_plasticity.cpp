@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <string>
@@ -197,7 +198,7 @@ void j2_objective_shear_order() {
     PlasticState state;
     for (int n = 0; n < steps; ++n) {
       PlasticState at_half = state;
-      const StressVector<Dim> half = model.update_stress({stress, stress, g, 0.5 * dt, true}, at_half);
+      const StressVector<Dim> half = model.update_stress({stress, stress, g, 0.5 * dt, true, true}, at_half);
       stress = model.update_stress({stress, half, g, dt, true}, state);
     }
     errors.push_back((to_tensor<Dim>(stress) - exact.stress).cwiseAbs().maxCoeff() / scale);
@@ -236,7 +237,7 @@ void drucker_prager_objective_shear_order() {
     PlasticState state;
     for (int n = 0; n < steps; ++n) {
       PlasticState at_half = state;
-      const StressVector<Dim> half = model.update_stress({stress, stress, g, 0.5 * dt, true}, at_half);
+      const StressVector<Dim> half = model.update_stress({stress, stress, g, 0.5 * dt, true, true}, at_half);
       stress = model.update_stress({stress, half, g, dt, true}, state);
     }
     errors.push_back((to_tensor<Dim>(stress) - exact.stress).cwiseAbs().maxCoeff() / scale);
@@ -608,6 +609,90 @@ TEST(DruckerPrager, PerzynaOverstressOnTheCone) {
                 1e-8 * p.cohesion);
   }
   EXPECT_GT(viscous, 10);
+}
+
+// Random rotating, reversing and coarse paths (|L| dt from 1e-3 to 1e-1, up to five
+// yield strains a step) through the stepper's two stages, which reach the midpoint
+// return's fallbacks (a direction that misses the surface, a start outside it, a path
+// towards Drucker-Prager's apex or cut-off): every update finite, every yielding one on
+// its yield surface.
+struct Lcg {  // deterministic on every platform
+  std::uint64_t state = 12345;
+  double next() {  // in [-1, 1)
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) * 0x1.0p-52 - 1.0;
+  }
+};
+
+template <int Dim, class Model, class Check>
+void random_two_stage_paths(const Model& model, Check&& check) {
+  const double rate = 0.05;
+  Lcg random;
+  int yielding = 0;
+  for (int path = 0; path < 40; ++path) {
+    StressVector<Dim> stress{};
+    PlasticState state = model.initial_state();
+    for (int segment = 0; segment < 6; ++segment) {
+      Matrix<Dim> g;
+      for (int i = 0; i < Dim; ++i)
+        for (int j = 0; j < Dim; ++j) g(i, j) = rate * random.next();
+      const double dt = std::pow(10.0, -2.0 + random.next()) / rate;
+      for (int n = 0; n < 10; ++n) {
+        PlasticState at_half = state;
+        const StressVector<Dim> half = model.update_stress({stress, stress, g, 0.5 * dt, true, true}, at_half);
+        const PlasticState before = state;
+        stress = model.update_stress({stress, half, g, dt, true}, state);
+        for (const double c : stress) ASSERT_TRUE(std::isfinite(c)) << "path " << path << " segment " << segment;
+        if (!state.yielding) continue;
+        ++yielding;
+        check(stress, before, state, dt);
+      }
+    }
+  }
+  EXPECT_GT(yielding, 500);
+}
+
+template <int Dim>
+void j2_paths_stay_on_the_surface(const J2Plasticity<Dim>& model) {
+  random_two_stage_paths<Dim>(model, [&](const StressVector<Dim>& stress, const PlasticState& before,
+                                         const PlasticState& after, double dt) {
+    const double increment = after.equivalent_plastic_strain - before.equivalent_plastic_strain;
+    const double q = std::sqrt(1.5) * (deviator(to_tensor<Dim>(stress)) - after.back_stress).norm();
+    const double y = model.yield_stress(after.equivalent_plastic_strain, increment / dt, before.temperature);
+    EXPECT_NEAR(q, y, 1e-9 * y);
+    EXPECT_GE(increment, 0.0);
+  });
+}
+
+TEST(Plasticity, TwoStageUpdatesStayOnTheYieldSurfaceOnRandomPaths) {
+  const double young = 1e6, nu = 0.3;
+  const auto elastic = [&]<int Dim>() { return LinearElastic<Dim>(young, nu, 1000.0, PlaneMode::plane_strain); };
+  j2_paths_stay_on_the_surface<2>(J2Plasticity<2>(elastic.operator()<2>(), Linear<2>{2e4, 1e5, 5e4}));
+  j2_paths_stay_on_the_surface<3>(J2Plasticity<3>(elastic.operator()<3>(), Linear<3>{2e4, 1e5, 5e4}));
+  j2_paths_stay_on_the_surface<3>(
+      J2Plasticity<3>(elastic.operator()<3>(), Linear<3>{2e4, 1e5, 5e4}, J2Plasticity<3>::Perzyna{0.1, 2.0}));
+  J2Plasticity<3>::JohnsonCook jc;
+  jc.a = 2e4, jc.b = 8e4, jc.n = 0.4, jc.c = 0.05, jc.reference_rate = 1e-3;
+  j2_paths_stay_on_the_surface<3>(J2Plasticity<3>(elastic.operator()<3>(), jc));
+
+  for (const double cutoff : {std::numeric_limits<double>::infinity(), 5e3}) {
+    typename DruckerPrager<3>::Parameters p;
+    p.cohesion = 1e4, p.friction_angle = 20.0, p.dilation_angle = 5.0, p.hardening = 2e4, p.tension_cutoff = cutoff;
+    const DruckerPrager<3> dp(elastic.operator()<3>(), p);
+    random_two_stage_paths<3>(dp, [&](const StressVector<3>& stress, const PlasticState&, const PlasticState& after,
+                                      double) {
+      const Eigen::Matrix3d sigma = to_tensor<3>(stress);
+      const double f = dp.yield_function(sigma, after.equivalent_plastic_strain);
+      const double scale = dp.xi() * dp.cohesion(after.equivalent_plastic_strain);
+      const double apex = scale / dp.eta(), mean = sigma.trace() / 3.0;
+      EXPECT_LE(f, 1e-9 * scale);
+      EXPECT_LE(mean, std::min(cutoff, apex) * (1.0 + 1e-12) + 1e-9 * scale);
+      // On the cone, or at its apex, or held at the cut-off inside it.
+      const bool at_apex = deviator(sigma).norm() <= 1e-9 * scale;
+      const bool at_cutoff = std::abs(mean - cutoff) <= 1e-9 * scale;
+      EXPECT_TRUE(std::abs(f) <= 1e-9 * scale || at_apex || at_cutoff) << "f " << f << " mean " << mean;
+    });
+  }
 }
 
 TEST(Plasticity, RefusesBadParametersWithTheKeyAndTheFix) {

@@ -121,7 +121,7 @@ class DruckerPrager {
     const StressVector<Dim> rate = elastic_.stress_rate(in.velocity_gradient, in.rate_stress, in.objective);
     StressVector<Dim> trial;
     for (int m = 0; m < stress_component_count<Dim>; ++m) trial[m] = in.stress[m] + in.dt * rate[m];
-    return return_map(trial, state, in.dt, &in.stress);
+    return return_map(trial, state, in.dt, in.predictor ? nullptr : &in.stress);
   }
 
   /// Steps 1-3 of the file comment: the return of an elastic trial stress reached over
@@ -130,9 +130,9 @@ class DruckerPrager {
   StressVector<Dim> return_map(const StressVector<Dim>& trial, PlasticState& state, double dt,
                                const StressVector<Dim>* start = nullptr) const {
     state.yielding = false;
-    const Eigen::Matrix3d sigma = to_tensor<Dim>(trial);
-    double mean = sigma.trace() / 3.0;
-    Eigen::Matrix3d dev = deviator(sigma);
+    // In the stress arrays' layout (stress.hpp: contract, deviator_of), not as 3x3 tensors.
+    double mean = mean_of<Dim>(trial);
+    StressVector<Dim> dev = deviator_of<Dim>(trial);
     const double bulk = elastic_.model_lame() + 2.0 * elastic_.shear_modulus() / 3.0;
     const double shear = elastic_.shear_modulus();
     double work = 0.0;
@@ -149,7 +149,7 @@ class DruckerPrager {
       state.yielding = true;
     }
     // 2. Cone.
-    const double root_j2 = std::sqrt(0.5 * dev.squaredNorm());
+    const double root_j2 = std::sqrt(0.5 * contract<Dim>(dev, dev));
     const double f_trial = root_j2 + eta_ * mean - xi_ * cohesion(eps);
     if (f_trial > 0.0) {
       state.yielding = true;
@@ -157,12 +157,11 @@ class DruckerPrager {
       // With the step's start: along the midpoint deviatoric direction (file comment),
       // where that return stays on the cone's side of the apex; else radially.
       double dgamma = std::numeric_limits<double>::quiet_NaN();
-      Eigen::Matrix3d direction =
-          root_j2 > 0.0 ? Eigen::Matrix3d(dev / (std::sqrt(2.0) * root_j2)) : Eigen::Matrix3d::Zero();
+      StressVector<Dim> direction = scaled<Dim>(dev, root_j2 > 0.0 ? 1.0 / (std::sqrt(2.0) * root_j2) : 0.0);
       const double target = xi_ * cohesion(eps) - eta_ * mean;  // sqrt(J2) on the cone at dgamma = 0
       if (start && target > 0.0 && root_j2 > 0.0) {
-        const Eigen::Matrix3d midpoint = midpoint_direction(to_tensor<Dim>(*start), dev, mean, eps);
-        const double alignment = dev.cwiseProduct(midpoint).sum() / (std::sqrt(2.0) * root_j2);
+        const StressVector<Dim> midpoint = midpoint_direction(*start, dev, mean, eps);
+        const double alignment = contract<Dim>(dev, midpoint) / (std::sqrt(2.0) * root_j2);
         dgamma = cone_increment(root_j2, alignment, target, slope_elastic - shear, dt);
         if (std::isfinite(dgamma)) direction = midpoint;
       }
@@ -186,10 +185,11 @@ class DruckerPrager {
       if (dgamma >= 0.0) {
         // s = s_tr - 2 mu dgamma n / sqrt(2) (the deviatoric flow n / sqrt(2), |n| = 1),
         // no further than the apex.
-        dev -= std::min(std::sqrt(2.0) * shear * dgamma, dev.cwiseProduct(direction).sum()) * direction;
+        const double along = std::min(std::sqrt(2.0) * shear * dgamma, contract<Dim>(dev, direction));
+        for (int m = 0; m < stress_component_count<Dim>; ++m) dev[m] -= along * direction[m];
         mean -= bulk * eta_bar_ * dgamma;
         eps += xi_ * dgamma;
-        work += dgamma * (dev.cwiseProduct(direction).sum() / std::sqrt(2.0) + eta_bar_ * mean);  // sigma : d eps^p
+        work += dgamma * (contract<Dim>(dev, direction) / std::sqrt(2.0) + eta_bar_ * mean);  // sigma : d eps^p
       } else {
         // 3. Apex (eta_bar > 0 here: with psi = 0 the cut-off kept p at or below it).
         const double alpha = xi_ / eta_bar_, beta = xi_ / eta_;
@@ -209,7 +209,7 @@ class DruckerPrager {
           volumetric = (p_trial - beta * cohesion(eps0)) / (bulk + alpha * beta * p_.hardening);
         else
           volumetric = decreasing_root(residual, p_trial / bulk);
-        dev.setZero();
+        dev = {};
         mean = p_trial - bulk * volumetric;
         eps = eps0 + alpha * volumetric;
         work += mean * volumetric;
@@ -219,7 +219,9 @@ class DruckerPrager {
       state.equivalent_plastic_strain = eps;
       state.plastic_work += work;
     }
-    return from_tensor<Dim>(dev + mean * Eigen::Matrix3d::Identity());
+    for (int m = 0; m < stress_component_count<Dim>; ++m)
+      if (is_normal_component<Dim>(m)) dev[m] += mean;
+    return dev;
   }
 
  private:
@@ -228,13 +230,15 @@ class DruckerPrager {
   /// larger crossing in [0, 1]; sigma^n itself when the step starts on or outside the
   /// cone and moves out). On the segment sigma^n + t (sigma_tr - sigma^n),
   ///   |s^n + t ds|^2 = 2 (xi c - eta (p^n + t dp))^2,  with xi c - eta p >= 0.
-  Eigen::Matrix3d midpoint_direction(const Eigen::Matrix3d& start, const Eigen::Matrix3d& trial_deviator,
-                                     double trial_mean, double eps) const {
-    const Eigen::Matrix3d s0 = deviator(start), ds = trial_deviator - s0;
-    const double p0 = start.trace() / 3.0, dp = trial_mean - p0, q0 = xi_ * cohesion(eps) - eta_ * p0;
-    const double a = ds.squaredNorm() - 2.0 * eta_ * eta_ * dp * dp;
-    const double b = s0.cwiseProduct(ds).sum() + 2.0 * eta_ * dp * q0;  // half the linear coefficient
-    const double c = s0.squaredNorm() - 2.0 * q0 * q0;
+  StressVector<Dim> midpoint_direction(const StressVector<Dim>& start, const StressVector<Dim>& trial_deviator,
+                                       double trial_mean, double eps) const {
+    const StressVector<Dim> s0 = deviator_of<Dim>(start);
+    StressVector<Dim> ds;
+    for (int m = 0; m < stress_component_count<Dim>; ++m) ds[m] = trial_deviator[m] - s0[m];
+    const double p0 = mean_of<Dim>(start), dp = trial_mean - p0, q0 = xi_ * cohesion(eps) - eta_ * p0;
+    const double a = contract<Dim>(ds, ds) - 2.0 * eta_ * eta_ * dp * dp;
+    const double b = contract<Dim>(s0, ds) + 2.0 * eta_ * dp * q0;  // half the linear coefficient
+    const double c = contract<Dim>(s0, s0) - 2.0 * q0 * q0;
     double leaves = 0.0;
     const auto consider = [&](double t) {
       if (t >= 0.0 && t <= 1.0 && q0 - eta_ * dp * t >= 0.0) leaves = std::max(leaves, t);
@@ -249,8 +253,9 @@ class DruckerPrager {
     } else if (b != 0.0) {
       consider(-0.5 * c / b);
     }
-    const Eigen::Matrix3d sum = trial_deviator + s0 + leaves * ds;
-    return sum / sum.norm();
+    StressVector<Dim> sum;
+    for (int m = 0; m < stress_component_count<Dim>; ++m) sum[m] = trial_deviator[m] + s0[m] + leaves * ds[m];
+    return scaled<Dim>(sum, 1.0 / std::sqrt(contract<Dim>(sum, sum)));
   }
 
   /// The cone return's dgamma along a deviatoric direction at `alignment` (cos) with s_tr:

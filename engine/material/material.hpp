@@ -62,6 +62,10 @@ class Material {
     if (const auto* j2 = std::get_if<1>(&model_)) return j2->is_johnson_cook() ? "johnson_cook" : "j2";
     return "drucker_prager";
   }
+  /// Whether the model reads the back stress and the temperature of its state (the
+  /// half step interpolates only what it reads; SolverState::interpolated_plastic_state).
+  bool reads_back_stress() const { return reads_back_stress_; }
+  bool reads_temperature() const { return reads_temperature_; }
   /// A virgin particle's internal variables.
   PlasticState initial_state() const {
     return visit([](const auto& m) {
@@ -108,6 +112,14 @@ class Material {
  private:
   Model model_;
   LinearElastic<Dim> elastic_;  ///< the model's elastic part, for the inline elastic path
+  bool reads_back_stress_ = visit([](const auto& m) {
+    if constexpr (requires { m.reads_back_stress(); }) return m.reads_back_stress();
+    else return false;
+  });
+  bool reads_temperature_ = visit([](const auto& m) {
+    if constexpr (requires { m.reads_temperature(); }) return m.reads_temperature();
+    else return false;
+  });
 };
 
 }  // namespace tsph

@@ -75,4 +75,42 @@ StressVector<Dim> from_tensor(const Eigen::Matrix3d& t) {
   else return {t(0, 0), t(1, 1), t(2, 2), t(0, 1), t(1, 2), t(2, 0)};
 }
 
+
+// Symmetric tensors in the stress arrays' layout (stress_index; 2D: xx, yy, xy, zz), for
+// the plastic returns' arithmetic: 4 components in 2D, 6 in 3D, not the 9 of a 3x3 tensor.
+template <int Dim>
+constexpr bool is_normal_component(int m) {
+  return Dim == 1 || (Dim == 2 ? m != 2 : m < 3);
+}
+/// a : b.
+template <int Dim>
+double contract(const StressVector<Dim>& a, const StressVector<Dim>& b) {
+  double sum = 0.0;
+  for (int m = 0; m < stress_component_count<Dim>; ++m) sum += (is_normal_component<Dim>(m) ? 1.0 : 2.0) * a[m] * b[m];
+  return sum;
+}
+template <int Dim>
+StressVector<Dim> scaled(const StressVector<Dim>& a, double factor) {
+  StressVector<Dim> out;
+  for (int m = 0; m < stress_component_count<Dim>; ++m) out[m] = factor * a[m];
+  return out;
+}
+/// tr(sigma) / 3.
+template <int Dim>
+double mean_of(const StressVector<Dim>& sigma) {
+  double trace = 0.0;
+  for (int m = 0; m < stress_component_count<Dim>; ++m)
+    if (is_normal_component<Dim>(m)) trace += sigma[m];
+  return trace / 3.0;
+}
+/// dev(sigma) - back (back = 0: the deviator).
+template <int Dim>
+StressVector<Dim> deviator_of(const StressVector<Dim>& sigma, const StressVector<Dim>& back = {}) {
+  const double mean = mean_of<Dim>(sigma);
+  StressVector<Dim> out;
+  for (int m = 0; m < stress_component_count<Dim>; ++m)
+    out[m] = sigma[m] - (is_normal_component<Dim>(m) ? mean : 0.0) - back[m];
+  return out;
+}
+
 }  // namespace tsph

@@ -11,7 +11,11 @@ namespace tsph {
 /// spin W) in, sigma^{n+1} out. `rate_stress` is the stress that the objective
 /// (Jaumann) terms W sigma - sigma W rotate: the interpolated stress at the particle,
 /// which in the full step differs from the particle's own sigma^n. `objective`: the
-/// Jaumann terms are on (updated Lagrangian).
+/// Jaumann terms are on (updated Lagrangian). `predictor`: the half step's update of a
+/// virtual particle (seed eq. 3), whose stress enters the full step only through dt
+/// (div sigma, W sigma - sigma W), so that O(dt^2) per step suffices: the plastic models
+/// return radially there and keep the midpoint flow direction (second order) for the
+/// full step (j2_plasticity.hpp).
 template <int Dim>
 struct StressUpdate {
   const StressVector<Dim>& stress;
@@ -19,6 +23,7 @@ struct StressUpdate {
   const Matrix<Dim>& velocity_gradient;
   double dt;
   bool objective;
+  bool predictor = false;
 };
 
 }  // namespace tsph

@@ -76,7 +76,7 @@ struct HalfStep {
           counts += status;
           if (status.no_neighbors) return;  // isolated: keeps its values (counted)
           const LocalState s = Eval::evaluate(source, nb, w, scratch.gathered);
-          const StressUpdate<Dim> update{s.stress, s.stress, s.velocity_gradient, half_dt, objective};
+          const StressUpdate<Dim> update{s.stress, s.stress, s.velocity_gradient, half_dt, objective, true};
           const StressVector<Dim> stress =
               plastic ? plastic_stress(state, update, nb, w) : model.update_stress(update);
           for (int m = 0; m < stress_count; ++m) target.stress[m][q] = stress[m];

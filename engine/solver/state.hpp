@@ -485,16 +485,17 @@ struct SolverState {
   /// A virtual particle's plastic state at n: interpolated from its real row `nb` with
   /// the half step's interpolation weights (the plastic strain kept >= 0).
   PlasticState interpolated_plastic_state(std::span<const std::uint32_t> nb, const double* weight) const {
-    PlasticState p;
-    StressVector<Dim> back{};
-    for (std::size_t k = 0; k < nb.size(); ++k) {
-      const std::uint32_t j = nb[k];
-      p.equivalent_plastic_strain += weight[k] * real.plastic_strain[j];
-      p.temperature += weight[k] * real.temperature[j];
-      for (int c = 0; c < stress_count; ++c) back[c] += weight[k] * real.back_stress[c][j];
-    }
+    PlasticState p;  // what the model does not read (Material::reads_*) stays zero
+    for (std::size_t k = 0; k < nb.size(); ++k) p.equivalent_plastic_strain += weight[k] * real.plastic_strain[nb[k]];
     p.equivalent_plastic_strain = std::max(p.equivalent_plastic_strain, 0.0);
-    p.back_stress = to_tensor<Dim>(back);
+    if (material.reads_temperature())
+      for (std::size_t k = 0; k < nb.size(); ++k) p.temperature += weight[k] * real.temperature[nb[k]];
+    if (material.reads_back_stress()) {
+      StressVector<Dim> back{};
+      for (std::size_t k = 0; k < nb.size(); ++k)
+        for (int c = 0; c < stress_count; ++c) back[c] += weight[k] * real.back_stress[c][nb[k]];
+      p.back_stress = to_tensor<Dim>(back);
+    }
     return p;
   }
   /// The stress update of real particle i: elastic, or plastic with the particle's state,

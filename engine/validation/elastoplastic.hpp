@@ -265,7 +265,8 @@ struct DruckerPragerRates {
 /// Classical Runge-Kutta (RK4) with `steps` steps; the elastic phase's step that crosses
 /// the yield surface is bisected to the onset, so that the rates' kink falls on a step
 /// boundary and the order holds (tests/test_plasticity.cpp: 2e3 and 4e3 steps agree to
-/// ~1e-13).
+/// ~1e-13). Monotonic loading only: once plastic it stays so (a path that unloads and
+/// reloads inside the surface would need the onset located again).
 template <class Rates>
 RateState integrate_constant_gradient(const Rates& model, const Eigen::Matrix3d& grad_v, double t, int steps) {
   const Eigen::Matrix3d d = 0.5 * (grad_v + grad_v.transpose()), w = 0.5 * (grad_v - grad_v.transpose());
