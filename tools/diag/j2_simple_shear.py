@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Diagnostic (docs/validation.md, Plasticity, "J2 in simple shear through the stepper"):
+"""Diagnostic (docs/validation.md, Plasticity, "The midpoint return"; the check itself is
+`tsph validate plastic_j2_shear_2d`, against the same equations in C++):
 the homogeneous block sheared at gamma_dot = 0.05 1/s (plane strain, J2 with linear
 isotropic and kinematic hardening, a driven body) against the Jaumann-rate elastoplastic
 ODE: the elastic phase in closed form (sigma_xy = G sin(gamma), sigma_xx = -sigma_yy =
@@ -18,7 +19,9 @@ by RK4 (converged to 1e-15 between h = 2e-3 and 1e-3).
     tools/diag/j2_simple_shear.py DIR [H_KIN]
 
 Prints, per frame, the worst particle's stress error (relative to the largest reference
-component) and plastic-strain error (relative to the reference).
+component) and plastic-strain error (relative to the reference): 1.5e-9 and 5.5e-10 at
+t = 4 s since the midpoint return (2026-11-27, session 11; the radial return: 9.7e-6 and
+1.2e-7, first order in dt).
 """
 import os
 import sys
