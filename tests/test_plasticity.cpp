@@ -7,6 +7,7 @@
 // softening by the identities their steps satisfy; bad parameters refused.
 #include "engine/material/drucker_prager.hpp"
 #include "engine/material/j2_plasticity.hpp"
+#include "engine/time_function.hpp"
 #include "engine/validation/elastoplastic.hpp"
 
 #include <gtest/gtest.h>
@@ -173,6 +174,38 @@ TEST(J2Plasticity, RateReferenceIsTheClosedFormElasticallyAndConverged) {
   EXPECT_LT((coarse.stress - fine.stress).cwiseAbs().maxCoeff(), 1e-12 * fine.stress.cwiseAbs().maxCoeff());
   EXPECT_NEAR(coarse.plastic_strain, fine.plastic_strain, 1e-12 * fine.plastic_strain);
   EXPECT_NEAR(plastic.yield_function(fine), 0.0, 1e-10 * 2e4);  // stays on the surface
+}
+
+// The rate equations' reference with a load reversal (f from 1 to -1: unloading at f's
+// zero, reverse yielding, the kinks on step boundaries): converged in its step, and met
+// by the stepper's two stages (J2 with kinematic hardening: the Bauschinger effect).
+TEST(J2Plasticity, RateReferenceWithAReversalIsConvergedAndMetByTheStepper) {
+  const double young = 1e6, nu = 0.3, rate = 0.05;
+  Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
+  g(0, 1) = rate;
+  const double t_a = 9.5, t_b = 10.5, end = 22.0;  // gamma 0.5 at the turn (t = 10), about -0.1 at the end
+  const TimeFunction f = TimeFunction::table({t_a, t_b}, {1.0, -1.0});
+  const auto scale = [&](double t) { return f(t); };
+  const elastoplastic::J2Rates rates{young, nu, 2e4, 1e5, 5e4};
+  const auto coarse = elastoplastic::integrate_gradient_path(rates, g, scale, {t_a, 10.0, t_b}, end, 5e-3);
+  const auto fine = elastoplastic::integrate_gradient_path(rates, g, scale, {t_a, 10.0, t_b}, end, 2.5e-3);
+  const double stress_scale = fine.stress.cwiseAbs().maxCoeff();
+  EXPECT_LT((coarse.stress - fine.stress).cwiseAbs().maxCoeff(), 1e-13 * stress_scale);  // 1.5e-15
+  EXPECT_NEAR(coarse.plastic_strain, fine.plastic_strain, 1e-11 * fine.plastic_strain);
+  EXPECT_LT(fine.stress(0, 1), -0.5 * stress_scale);  // yielded in reverse
+  // Through the stepper's two stages, dt = 2.5e-3 s (t_a, t_b on whole steps).
+  const J2Plasticity<2> model(LinearElastic<2>(young, nu, 1000.0, PlaneMode::plane_strain), Linear<2>{2e4, 1e5, 5e4});
+  const double dt = 2.5e-3;
+  StressVector<2> stress{};
+  PlasticState state;
+  for (int n = 0; n < static_cast<int>(std::lround(end / dt)); ++n) {
+    const Matrix<2> at_n = f(n * dt) * g.topLeftCorner<2, 2>(), at_half = f((n + 0.5) * dt) * g.topLeftCorner<2, 2>();
+    PlasticState half_state = state;
+    const StressVector<2> half = model.update_stress({stress, stress, at_n, 0.5 * dt, true, true}, half_state);
+    stress = model.update_stress({stress, half, at_half, dt, true}, state);
+  }
+  EXPECT_LT((to_tensor<2>(stress) - fine.stress).cwiseAbs().maxCoeff(), 1e-8 * stress_scale);  // 1.4e-9
+  EXPECT_NEAR(state.equivalent_plastic_strain, fine.plastic_strain, 1e-8 * fine.plastic_strain);  // 8.8e-10
 }
 
 // The objective simple shear through the stepper's two stages (half step: sigma^n over

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace tsph::elastoplastic {
 
@@ -209,6 +210,10 @@ struct J2Rates {
     return std::sqrt(1.5) * ((y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()) - y.back_stress).norm() -
            (yield + iso * y.plastic_strain);
   }
+  /// The flow rule's multiplier is positive (n : D > 0).
+  bool loading(const RateState& y, const Eigen::Matrix3d& d) const {
+    return ((y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()) - y.back_stress).cwiseProduct(d).sum() > 0.0;
+  }
   RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
     const double mu = young / (2.0 * (1.0 + nu)), lame = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     Eigen::Matrix3d elastic_d = d, flow = Eigen::Matrix3d::Zero();
@@ -239,6 +244,12 @@ struct DruckerPragerRates {
     const Eigen::Matrix3d s = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
     return std::sqrt(0.5 * s.squaredNorm()) + eta * y.stress.trace() / 3.0 - xi * (cohesion + hardening * y.plastic_strain);
   }
+  /// The flow rule's multiplier is positive (mu s : D / sqrt(J2) + eta K tr D > 0).
+  bool loading(const RateState& y, const Eigen::Matrix3d& d) const {
+    const double mu = young / (2.0 * (1.0 + nu)), bulk = young / (3.0 * (1.0 - 2.0 * nu));
+    const Eigen::Matrix3d s = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
+    return mu * s.cwiseProduct(d).sum() / std::sqrt(0.5 * s.squaredNorm()) + eta * bulk * d.trace() > 0.0;
+  }
   RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
     const double mu = young / (2.0 * (1.0 + nu)), lame = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     const double bulk = lame + 2.0 * mu / 3.0;
@@ -259,17 +270,19 @@ struct DruckerPragerRates {
   }
 };
 
-/// A model's rate equations (J2Rates, ...) under a constant velocity gradient L (3x3),
-/// from a stress-free virgin state over the time t: the reference of paths whose flow
-/// direction turns (simple shear: the spin turns the stress), which have no closed form.
-/// Classical Runge-Kutta (RK4) with `steps` steps; the elastic phase's step that crosses
-/// the yield surface is bisected to the onset, so that the rates' kink falls on a step
-/// boundary and the order holds (tests/test_plasticity.cpp: 2e3 and 4e3 steps agree to
-/// ~1e-13). Monotonic loading only: once plastic it stays so (a path that unloads and
-/// reloads inside the surface would need the onset located again).
-template <class Rates>
-RateState integrate_constant_gradient(const Rates& model, const Eigen::Matrix3d& grad_v, double t, int steps) {
-  const Eigen::Matrix3d d = 0.5 * (grad_v + grad_v.transpose()), w = 0.5 * (grad_v - grad_v.transpose());
+/// A model's rate equations (J2Rates, ...) under the velocity gradient L(t) = f(t) L0
+/// (3x3), from a stress-free virgin state over the time t: the reference of paths whose
+/// flow direction turns (simple shear: the spin turns the stress), which have no closed
+/// form. Classical Runge-Kutta (RK4), steps of at most `step` between the `breakpoints`
+/// (where f has a kink or changes sign: each is a step boundary); the elastic phase's step
+/// that crosses the yield surface is bisected to the onset, and a plastic phase turns
+/// elastic at a step where the model unloads (`loading` false: the flow rule's multiplier
+/// would be negative), so that every kink of the rates falls on a step boundary and the
+/// order holds (tests/test_plasticity.cpp: converged to ~1e-13).
+template <class Rates, class Scale>
+RateState integrate_gradient_path(const Rates& model, const Eigen::Matrix3d& grad_v, Scale&& f,
+                                  std::vector<double> breakpoints, double t, double step) {
+  const Eigen::Matrix3d d0 = 0.5 * (grad_v + grad_v.transpose()), w0 = 0.5 * (grad_v - grad_v.transpose());
   const auto advance = [&](const RateState& y, double h, const RateState& k, double factor) {
     RateState next = y;
     next.stress += factor * h * k.stress;
@@ -277,11 +290,15 @@ RateState integrate_constant_gradient(const Rates& model, const Eigen::Matrix3d&
     next.plastic_strain += factor * h * k.plastic_strain;
     return next;
   };
-  const auto rk4 = [&](const RateState& y, double h, bool plastic) {
-    const RateState k1 = model.rates(y, d, w, plastic);
-    const RateState k2 = model.rates(advance(y, h, k1, 0.5), d, w, plastic);
-    const RateState k3 = model.rates(advance(y, h, k2, 0.5), d, w, plastic);
-    const RateState k4 = model.rates(advance(y, h, k3, 1.0), d, w, plastic);
+  const auto rates = [&](const RateState& y, double time, bool plastic) {
+    const double scale = f(time);
+    return model.rates(y, scale * d0, scale * w0, plastic);
+  };
+  const auto rk4 = [&](const RateState& y, double time, double h, bool plastic) {
+    const RateState k1 = rates(y, time, plastic);
+    const RateState k2 = rates(advance(y, h, k1, 0.5), time + 0.5 * h, plastic);
+    const RateState k3 = rates(advance(y, h, k2, 0.5), time + 0.5 * h, plastic);
+    const RateState k4 = rates(advance(y, h, k3, 1.0), time + h, plastic);
     RateState next = y;
     next.stress += h / 6.0 * (k1.stress + 2.0 * k2.stress + 2.0 * k3.stress + k4.stress);
     next.back_stress += h / 6.0 * (k1.back_stress + 2.0 * k2.back_stress + 2.0 * k3.back_stress + k4.back_stress);
@@ -289,28 +306,52 @@ RateState integrate_constant_gradient(const Rates& model, const Eigen::Matrix3d&
         h / 6.0 * (k1.plastic_strain + 2.0 * k2.plastic_strain + 2.0 * k3.plastic_strain + k4.plastic_strain);
     return next;
   };
+  std::sort(breakpoints.begin(), breakpoints.end());
+  breakpoints.erase(std::remove_if(breakpoints.begin(), breakpoints.end(), [&](double b) { return !(b > 0.0 && b < t); }),
+                    breakpoints.end());
+  breakpoints.push_back(t);
   RateState y;
-  const double h = t / steps;
-  double time = 0.0;
   bool plastic = false;
-  while (t - time > 1e-12 * t) {
-    const double step = std::min(h, t - time);
-    const RateState next = rk4(y, step, plastic);
-    if (!plastic && model.yield_function(next) > 0.0) {  // to the onset, then on plastically
-      double inside = 0.0, outside = step;
-      for (int i = 0; i < 200 && outside - inside > 1e-16 * outside; ++i) {
-        const double mid = 0.5 * (inside + outside);
-        (model.yield_function(rk4(y, mid, false)) > 0.0 ? outside : inside) = mid;
+  double time = 0.0;
+  for (const double end : breakpoints) {
+    const int steps = std::max(1, static_cast<int>(std::ceil((end - time) / step)));
+    const double h = (end - time) / steps, segment_start = time;
+    for (int n = 0; n < steps;) {
+      const double from = std::max(segment_start + n * h, time);  // after an onset: the step's rest
+      const double length = (n + 1 == steps ? end : segment_start + (n + 1) * h) - from;
+      if (!(length > 0.0)) {
+        ++n;
+        continue;
       }
-      y = rk4(y, inside, false);
-      time += inside;
-      plastic = true;
-      continue;
+      if (plastic) {
+        const double scale = f(from + 0.5 * length);  // unloading: elastic from here
+        if (!model.loading(y, scale * d0)) plastic = false;
+      }
+      const RateState next = rk4(y, from, length, plastic);
+      if (!plastic && model.yield_function(next) > 0.0) {  // to the onset, then on plastically
+        double inside = 0.0, outside = length;
+        for (int i = 0; i < 200 && outside - inside > 1e-16 * outside; ++i) {
+          const double mid = 0.5 * (inside + outside);
+          (model.yield_function(rk4(y, from, mid, false)) > 0.0 ? outside : inside) = mid;
+        }
+        y = rk4(y, from, inside, false);
+        time = from + inside;
+        plastic = true;
+        continue;  // the same step's rest, plastically
+      }
+      y = next;
+      time = from + length;
+      ++n;
     }
-    y = next;
-    time += step;
+    time = end;
   }
   return y;
+}
+
+/// integrate_gradient_path with a constant gradient (f = 1) in `steps` equal steps.
+template <class Rates>
+RateState integrate_constant_gradient(const Rates& model, const Eigen::Matrix3d& grad_v, double t, int steps) {
+  return integrate_gradient_path(model, grad_v, [](double) { return 1.0; }, {}, t, t / steps);
 }
 
 }  // namespace tsph::elastoplastic

@@ -10,10 +10,11 @@
 // ln(stretch) 0.15, unloaded and yielded in reverse to about -0.05 (the end on a whole
 // step; J2: the Bauschinger effect of the kinematic hardening); Drucker-Prager compressed
 // to -0.15 and reversed to about 0.02, where it yields on the cone's extension side.
-// The simple shears (J2, Drucker-Prager; v_x = rate y to gamma = 1) turn the flow direction with the
-// spin: no closed form; the reference is the Jaumann-rate equations integrated to
-// convergence (elastoplastic::integrate_constant_gradient), which the stepper meets to
-// second order in dt (J2Plasticity's midpoint flow direction).
+// The simple shears (J2, Drucker-Prager; v_x = rate y to gamma = 1, or to 0.5 and reversed
+// by the same time table to about -0.1) turn the flow direction with the spin: no closed
+// form; the reference is the Jaumann-rate equations integrated to convergence
+// (elastoplastic::integrate_gradient_path), which the stepper meets to second order in dt
+// (J2Plasticity's midpoint flow direction).
 #include "engine/material/drucker_prager.hpp"
 #include "engine/time_function.hpp"
 #include "engine/validation/elastoplastic.hpp"
@@ -72,28 +73,34 @@ std::vector<std::string> material_overrides(Model m) {
 
 /// The closed-form stress at the log strain e, and its equivalent plastic strain.
 /// `reversed`: past the cycle's reversal at the strain `peak`.
+/// The simple shears' reference at `time`: the rate equations under v_x = f(t) rate y,
+/// converged (RK4 with d gamma <= 2.5e-4, f's kinks and zero as step boundaries).
+Eigen::Matrix3d shear_reference(const PlasticSpec& s, const CaseFile& c, double time, const TimeFunction& f,
+                                const std::vector<double>& breakpoints, double& plastic) {
+  const double young = c.young_modulus, nu = c.poisson_ratio;
+  Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
+  g(0, 1) = kRate;
+  const auto scale = [&](double t) { return f(t); };
+  const double step = 2.5e-4 / kRate;
+  elastoplastic::RateState y;
+  if (s.model == Model::j2) {
+    y = elastoplastic::integrate_gradient_path(elastoplastic::J2Rates{young, nu, kYield, kIsotropic, kKinematic}, g,
+                                               scale, breakpoints, time, step);
+  } else {
+    typename DruckerPrager<3>::Parameters p;
+    p.cohesion = kCohesion, p.friction_angle = kFriction, p.dilation_angle = kDilation;
+    const DruckerPrager<3> model(LinearElastic<3>(young, nu, c.density), p);  // its cone constants
+    y = elastoplastic::integrate_gradient_path(
+        elastoplastic::DruckerPragerRates{young, nu, kCohesion, 0.0, model.eta(), model.xi(), model.eta_bar()}, g,
+        scale, breakpoints, time, step);
+  }
+  plastic = y.plastic_strain;
+  return y.stress;
+}
+
 Eigen::Matrix3d reference(const PlasticSpec& s, const CaseFile& c, double e, double& plastic, double peak = 0.0,
                           bool reversed = false) {
   const double young = c.young_modulus, nu = c.poisson_ratio;
-  if (s.shear) {  // e: gamma; the rate equations, converged (RK4 with d gamma 2.5e-4)
-    Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
-    g(0, 1) = kRate;
-    const int steps = std::max(100, static_cast<int>(std::ceil(4000.0 * e)));
-    elastoplastic::RateState y;
-    if (s.model == Model::j2) {
-      y = elastoplastic::integrate_constant_gradient(elastoplastic::J2Rates{young, nu, kYield, kIsotropic, kKinematic},
-                                                     g, e / kRate, steps);
-    } else {
-      typename DruckerPrager<3>::Parameters p;
-      p.cohesion = kCohesion, p.friction_angle = kFriction, p.dilation_angle = kDilation;
-      const DruckerPrager<3> model(LinearElastic<3>(young, nu, c.density), p);  // its cone constants
-      y = elastoplastic::integrate_constant_gradient(
-          elastoplastic::DruckerPragerRates{young, nu, kCohesion, 0.0, model.eta(), model.xi(), model.eta_bar()}, g,
-          e / kRate, steps);
-    }
-    plastic = y.plastic_strain;
-    return y.stress;
-  }
   switch (s.model) {
     case Model::j2:
       return elastoplastic::j2_uniaxial_strain_cycle(young, nu, kYield, kIsotropic, kKinematic, peak, reversed,
@@ -130,6 +137,7 @@ Result run_plastic(const PlasticSpec& s, const Options& o) {
   // boundaries (multiples of the run's dt, read from a one-step run), where the midpoint
   // rule of the stress update integrates f exactly; the strain peaks at (t_a + t_b) / 2.
   TimeFunction f = TimeFunction::constant(1.0);
+  std::vector<double> breakpoints;  // f's kinks and zero (the shears' reference)
   double end = s.log_strain / rate, turn = end;
   if (cycle) {
     std::vector<std::string> probe = overrides;
@@ -142,6 +150,7 @@ Result run_plastic(const PlasticSpec& s, const Options& o) {
     const double t_a = steps_a * dt, t_b = (steps_a + steps_turn) * dt;
     f = TimeFunction::table({t_a, t_b}, {1.0, -1.0});
     turn = 0.5 * (t_a + t_b);
+    breakpoints = {t_a, turn, t_b};
     // int_0^end f = log_strain / rate, to a whole step; the frames on whole steps too (a
     // step is shortened to land on a frame, which would move the grid off t_a and t_b).
     const double frame_steps = std::round((t_b + f.integral(t_b) - s.log_strain / rate) / dt / kFrames);
@@ -173,13 +182,17 @@ Result run_plastic(const PlasticSpec& s, const Options& o) {
   series.columns = {strain_name, "sigma_xx", second, "plastic strain x 1e6", "ref sigma_xx", "ref " + second,
                     "ref plastic strain x 1e6"};
   double final_plastic = 0.0;
-  const Eigen::Matrix3d final_reference = reference(s, run.file, final_strain, final_plastic, peak, cycle);
+  const auto reference_at = [&](double time, double e, double& plastic_ref, bool reversed) {
+    return s.shear ? shear_reference(s, run.file, time, f, breakpoints, plastic_ref)
+                   : reference(s, run.file, e, plastic_ref, peak, reversed);
+  };
+  const Eigen::Matrix3d final_reference = reference_at(end, final_strain, final_plastic, cycle);
   const double scale = final_reference.cwiseAbs().maxCoeff();
   double worst = 0.0, worst_plastic = 0.0, mean_xx = 0.0, mean_yy = 0.0, mean_plastic = 0.0;
   for (std::size_t k = 0; k < run.frames.size(); ++k) {
     const double e = rate * f.integral(run.frame_times[k]);
     double plastic_ref = 0.0;
-    const Eigen::Matrix3d ref = reference(s, run.file, e, plastic_ref, peak, cycle && run.frame_times[k] > turn);
+    const Eigen::Matrix3d ref = reference_at(run.frame_times[k], e, plastic_ref, cycle && run.frame_times[k] > turn);
     const auto& stress = array_of(run.frames[k], "stress");  // VTK order xx yy zz xy yz xz
     const auto& plastic = array_of(run.frames[k], "plastic_strain");
     const std::size_t n = run.frames[k].point_count;
@@ -246,12 +259,21 @@ std::vector<Case> plasticity_cases() {
        2, Model::j2, 1.0, 0.0, false, true},
       {"plastic_j2_shear_3d", "J2, isotropic + kinematic hardening, simple shear to gamma = 1 (the spin turns the stress), 3D",
        3, Model::j2, 1.0, 0.0, false, true},
+      {"plastic_j2_shear_cycle_2d",
+       "J2, isotropic + kinematic hardening, simple shear to gamma = 0.5, reversed to about -0.1, plane strain", 2,
+       Model::j2, -0.1, 0.5, false, true},
+      {"plastic_j2_shear_cycle_3d",
+       "J2, isotropic + kinematic hardening, simple shear to gamma = 0.5, reversed to about -0.1, 3D", 3, Model::j2,
+       -0.1, 0.5, false, true},
       {"plastic_drucker_prager_shear_2d",
        "Drucker-Prager (phi 20, psi 5), simple shear to gamma = 1 (dilation against the driven volume), plane strain", 2,
        Model::drucker_prager, 1.0, 0.0, false, true},
       {"plastic_drucker_prager_shear_3d",
        "Drucker-Prager (phi 20, psi 5), simple shear to gamma = 1 (dilation against the driven volume), 3D", 3,
        Model::drucker_prager, 1.0, 0.0, false, true},
+      {"plastic_drucker_prager_shear_cycle_3d",
+       "Drucker-Prager (phi 20, psi 5), simple shear to gamma = 0.5, reversed to about -0.1, 3D", 3,
+       Model::drucker_prager, -0.1, 0.5, false, true},
   };
   std::vector<Case> cases;
   for (const auto& s : specs)
