@@ -174,6 +174,15 @@ TEST(J2Plasticity, RateReferenceIsTheClosedFormElasticallyAndConverged) {
   EXPECT_LT((coarse.stress - fine.stress).cwiseAbs().maxCoeff(), 1e-12 * fine.stress.cwiseAbs().maxCoeff());
   EXPECT_NEAR(coarse.plastic_strain, fine.plastic_strain, 1e-12 * fine.plastic_strain);
   EXPECT_NEAR(plastic.yield_function(fine), 0.0, 1e-10 * 2e4);  // stays on the surface
+  // Johnson-Cook (n = 0.4: an infinite tangent at first yield, integrated in eps_p^n):
+  // converged (order about 2.5 from the onset) and on the surface.
+  const elastoplastic::JohnsonCookRates jc{young, nu, 2e4, 8e4, 0.4};
+  const auto jc_coarse = elastoplastic::integrate_constant_gradient(jc, g, 1.0 / rate, 8000);
+  const auto jc_fine = elastoplastic::integrate_constant_gradient(jc, g, 1.0 / rate, 16000);
+  EXPECT_LT((jc_coarse.stress - jc_fine.stress).cwiseAbs().maxCoeff(), 1e-10 * jc_fine.stress.cwiseAbs().maxCoeff());
+  EXPECT_NEAR(jc.plastic_strain(jc_coarse), jc.plastic_strain(jc_fine), 5e-10 * jc.plastic_strain(jc_fine));  // 2.3e-10
+  EXPECT_GT(jc.plastic_strain(jc_fine), 0.4);
+  EXPECT_NEAR(jc.yield_function(jc_fine), 0.0, 1e-10 * 2e4);
 }
 
 // The rate equations' reference with a load reversal (f from 1 to -1: unloading at f's

@@ -232,6 +232,42 @@ struct J2Rates {
   }
 };
 
+/// Johnson-Cook strength without the rate and thermal terms, Y = A + B eps_p^n, as rate
+/// equations (J2Rates' flow with the tangent modulus H = B n eps_p^(n-1) in place of
+/// H_iso, no kinematic hardening). For n < 1, H is infinite at first yield and d eps_p / dt
+/// ~ eps_p^(1-n), which RK4 cannot start from eps_p = 0; RateState::plastic_strain holds
+/// u = eps_p^n instead, whose rate
+///   du/dt = sqrt(2/3) n 2 mu n : D / (2 mu eps_p^(1-n) + 2/3 B n)
+/// is finite there (plastic_strain(y) = u^(1/n)).
+struct JohnsonCookRates {
+  double young, nu, a, b, n;
+  double plastic_strain(const RateState& y) const { return std::pow(std::max(y.plastic_strain, 0.0), 1.0 / n); }
+  double yield_function(const RateState& y) const {
+    return std::sqrt(1.5) * (y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()).norm() -
+           (a + b * std::max(y.plastic_strain, 0.0));
+  }
+  bool loading(const RateState& y, const Eigen::Matrix3d& d) const {
+    return (y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()).cwiseProduct(d).sum() > 0.0;
+  }
+  RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
+    const double mu = young / (2.0 * (1.0 + nu)), lame = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    Eigen::Matrix3d elastic_d = d;
+    RateState r;
+    r.back_stress.setZero();
+    if (plastic) {
+      const Eigen::Matrix3d xi = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
+      const Eigen::Matrix3d flow = xi / xi.norm();
+      const double driving = std::max(0.0, 2.0 * mu * flow.cwiseProduct(d).sum());
+      const double lag = 2.0 * mu * std::pow(plastic_strain(y), 1.0 - n);  // 2 mu eps_p^(1-n)
+      const double denominator = lag + 2.0 / 3.0 * b * n;
+      elastic_d -= driving * (lag / (2.0 * mu)) / denominator * flow;  // lambda_dot = 2 mu n:D eps^(1-n) / (...)
+      r.plastic_strain = std::sqrt(2.0 / 3.0) * n * driving / denominator;
+    }
+    r.stress = lame * elastic_d.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * elastic_d + w * y.stress - y.stress * w;
+    return r;
+  }
+};
+
 /// Drucker-Prager (engine/material/drucker_prager.hpp) as rate equations: cohesion
 /// c = c0 + H eps_p, yield f = sqrt(J2) + eta p - xi c, potential g = sqrt(J2) + eta_bar p,
 /// m = dg/dsigma = s / (2 sqrt(J2)) + eta_bar / 3 I, on the cone (de Souza Neto et al. 2008, ch. 8)

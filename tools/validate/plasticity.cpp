@@ -10,7 +10,7 @@
 // ln(stretch) 0.15, unloaded and yielded in reverse to about -0.05 (the end on a whole
 // step; J2: the Bauschinger effect of the kinematic hardening); Drucker-Prager compressed
 // to -0.15 and reversed to about 0.02, where it yields on the cone's extension side.
-// The simple shears (J2, Drucker-Prager; v_x = rate y to gamma = 1, or to 0.5 and reversed
+// The simple shears (J2, Johnson-Cook, Drucker-Prager; v_x = rate y to gamma = 1, or to 0.5 and reversed
 // by the same time table to about -0.1) turn the flow direction with the spin: no closed
 // form; the reference is the Jaumann-rate equations integrated to convergence
 // (elastoplastic::integrate_gradient_path), which the stepper meets to second order in dt
@@ -86,6 +86,11 @@ Eigen::Matrix3d shear_reference(const PlasticSpec& s, const CaseFile& c, double 
   if (s.model == Model::j2) {
     y = elastoplastic::integrate_gradient_path(elastoplastic::J2Rates{young, nu, kYield, kIsotropic, kKinematic}, g,
                                                scale, breakpoints, time, step);
+  } else if (s.model == Model::johnson_cook) {  // its eps_p^n as the variable: d gamma 6.25e-5 (converged to 1e-10)
+    const elastoplastic::JohnsonCookRates rates{young, nu, kA, kB, kN};
+    y = elastoplastic::integrate_gradient_path(rates, g, scale, breakpoints, time, 0.25 * step);
+    plastic = rates.plastic_strain(y);
+    return y.stress;
   } else {
     typename DruckerPrager<3>::Parameters p;
     p.cohesion = kCohesion, p.friction_angle = kFriction, p.dilation_angle = kDilation;
@@ -265,6 +270,11 @@ std::vector<Case> plasticity_cases() {
       {"plastic_j2_shear_cycle_3d",
        "J2, isotropic + kinematic hardening, simple shear to gamma = 0.5, reversed to about -0.1, 3D", 3, Model::j2,
        -0.1, 0.5, false, true},
+      {"plastic_johnson_cook_shear_3d", "Johnson-Cook (A, B, n), simple shear to gamma = 1, 3D", 3, Model::johnson_cook,
+       1.0, 0.0, false, true},
+      {"plastic_johnson_cook_shear_cycle_3d",
+       "Johnson-Cook (A, B, n), simple shear to gamma = 0.5, reversed to about -0.1, 3D", 3, Model::johnson_cook, -0.1,
+       0.5, false, true},
       {"plastic_drucker_prager_shear_2d",
        "Drucker-Prager (phi 20, psi 5), simple shear to gamma = 1 (dilation against the driven volume), plane strain", 2,
        Model::drucker_prager, 1.0, 0.0, false, true},
