@@ -202,6 +202,16 @@ TEST(J2Plasticity, RateReferenceWithAReversalIsConvergedAndMetByTheStepper) {
   EXPECT_LT((coarse.stress - fine.stress).cwiseAbs().maxCoeff(), 1e-13 * stress_scale);  // 1.5e-15
   EXPECT_NEAR(coarse.plastic_strain, fine.plastic_strain, 1e-11 * fine.plastic_strain);
   EXPECT_LT(fine.stress(0, 1), -0.5 * stress_scale);  // yielded in reverse
+  // Held after plastic loading (f ramps to 0 and stays): the reference ends, the stress
+  // stays where the ramp left it (a hold once looped: the plastic phase's round-off
+  // excess above the surface looked like an onset).
+  const TimeFunction hold = TimeFunction::table({5.0, 5.5}, {1.0, 0.0});
+  const auto at_hold = elastoplastic::integrate_gradient_path(rates, g, [&](double t) { return hold(t); }, {5.0, 5.5},
+                                                              5.5, 2.5e-3);
+  const auto held = elastoplastic::integrate_gradient_path(rates, g, [&](double t) { return hold(t); }, {5.0, 5.5},
+                                                           8.0, 2.5e-3);
+  EXPECT_LT((held.stress - at_hold.stress).cwiseAbs().maxCoeff(), 1e-12 * stress_scale);
+  EXPECT_EQ(held.plastic_strain, at_hold.plastic_strain);
   // Through the stepper's two stages, dt = 2.5e-3 s (t_a, t_b on whole steps).
   const J2Plasticity<2> model(LinearElastic<2>(young, nu, 1000.0, PlaneMode::plane_strain), Linear<2>{2e4, 1e5, 5e4});
   const double dt = 2.5e-3;

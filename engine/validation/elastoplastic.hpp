@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 namespace tsph::elastoplastic {
@@ -342,6 +343,7 @@ RateState integrate_gradient_path(const Rates& model, const Eigen::Matrix3d& gra
         h / 6.0 * (k1.plastic_strain + 2.0 * k2.plastic_strain + 2.0 * k3.plastic_strain + k4.plastic_strain);
     return next;
   };
+  if (!(step > 0.0 && t >= 0.0)) throw std::invalid_argument("integrate_gradient_path: step and t must be positive");
   std::sort(breakpoints.begin(), breakpoints.end());
   breakpoints.erase(std::remove_if(breakpoints.begin(), breakpoints.end(), [&](double b) { return !(b > 0.0 && b < t); }),
                     breakpoints.end());
@@ -364,7 +366,9 @@ RateState integrate_gradient_path(const Rates& model, const Eigen::Matrix3d& gra
         if (!model.loading(y, scale * d0)) plastic = false;
       }
       const RateState next = rk4(y, from, length, plastic);
-      if (!plastic && model.yield_function(next) > 0.0) {  // to the onset, then on plastically
+      // An onset: f rises above 0 (and above a round-off excess that a plastic phase left:
+      // unloaded or held there, f stays, and the step is elastic).
+      if (!plastic && model.yield_function(next) > std::max(0.0, model.yield_function(y))) {
         double inside = 0.0, outside = length;
         for (int i = 0; i < 200 && outside - inside > 1e-16 * outside; ++i) {
           const double mid = 0.5 * (inside + outside);
