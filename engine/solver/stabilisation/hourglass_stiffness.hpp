@@ -138,34 +138,55 @@ class HourglassStiffness {
       mirror_fits(forward_fit_, mirror.virtual_, virtual_count);
       mirror_vectors(virtual_value_, mirror.virtual_, virtual_count);
     }
+    // R's fits and weights R_Iv depend on the initial coordinates and the lists alone:
+    // computed once per list build (both list orders), then read (the same numbers as
+    // computing them each step; 2026-11-27: the hourglass stiffness was half the quarter
+    // Taylor bar's time).
+    if (return_weights_build_ != hourglass_list_build_) {
+      return_weight_.resize(hourglass_from_virtual_.pair_count());
+      transposed_return_weight_.resize(hourglass_to_real_.pair_count());
+      parallel_for(real_count, [&](std::size_t i) {
+        const auto nb = hourglass_from_virtual_.neighbors(i);
+        const auto ri = static_cast<std::uint32_t>(i);
+        return_fit_[i] = fit(nb, [&](std::uint32_t v) { return Vec(-offset(ri, v)); }, return_h, every);
+        double* weight = return_weight_.data() + hourglass_from_virtual_.row_begin(i);
+        for (std::size_t k = 0; k < nb.size(); ++k)
+          weight[k] = return_fit_[i].weight_sum > 0.0 ? coefficient(return_fit_[i], Vec(-offset(ri, nb[k])), return_h) : 0.0;
+      });
+      if (mirror.active()) mirror_fits(return_fit_, mirror.real, real_count);
+      parallel_for(virtual_count, [&](std::size_t v) {
+        const auto nb = hourglass_to_real_.neighbors(v);
+        double* weight = transposed_return_weight_.data() + hourglass_to_real_.row_begin(v);
+        for (std::size_t k = 0; k < nb.size(); ++k)
+          weight[k] = return_fit_[nb[k]].weight_sum > 0.0
+                          ? coefficient(return_fit_[nb[k]], Vec(-offset(nb[k], static_cast<std::uint32_t>(v))), return_h)
+                          : 0.0;
+      });
+      return_weights_build_ = hourglass_list_build_;
+    }
     // R: r_I = u_I - sum_v R_Iv a_v, weighted by V_I.
     parallel_for(real_count, [&](std::size_t i) {
       const auto nb = hourglass_from_virtual_.neighbors(i);
-      const auto ri = static_cast<std::uint32_t>(i);
-      return_fit_[i] = fit(nb, [&](std::uint32_t v) { return Vec(-offset(ri, v)); }, return_h, every);
+      const double* weight = return_weight_.data() + hourglass_from_virtual_.row_begin(i);
       Vec residual = Vec::Zero();
       if (return_fit_[i].weight_sum > 0.0) {
-        residual = displacement(ri);
-        for (std::uint32_t v : nb)
-          residual -= coefficient(return_fit_[i], Vec(-offset(ri, v)), return_h) * virtual_value_[v];
+        residual = displacement(static_cast<std::uint32_t>(i));
+        for (std::size_t k = 0; k < nb.size(); ++k) residual -= weight[k] * virtual_value_[nb[k]];
       }
       round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * residual;
     });
-    if (mirror.active()) {
-      mirror_fits(return_fit_, mirror.real, real_count);
-      mirror_vectors(round_trip_residual_, mirror.real, real_count);
-    }
+    if (mirror.active()) mirror_vectors(round_trip_residual_, mirror.real, real_count);
     if (state.settings.energy_ledger)  // E = k/2 sum_I V_I |r_I|^2 (round_trip_residual_ holds V_I r_I)
       state.energy.hourglass_energy = 0.5 * stiffness * deterministic_sum(real_count, [&](std::size_t i) {
         return state.share(i) * round_trip_residual_[i].squaredNorm() * state.real.density[i] / state.real.mass[i];
       });
     // s_v = sum_I R_Iv V_I r_I (the transposed return trip; reuses virtual_value_).
     parallel_for(virtual_count, [&](std::size_t v) {
+      const auto nb = hourglass_to_real_.neighbors(v);
+      const double* weight = transposed_return_weight_.data() + hourglass_to_real_.row_begin(v);
       Vec sum = Vec::Zero();
-      for (std::uint32_t i : hourglass_to_real_.neighbors(v))
-        if (return_fit_[i].weight_sum > 0.0)
-          sum += coefficient(return_fit_[i], Vec(-offset(i, static_cast<std::uint32_t>(v))), return_h) *
-                 round_trip_residual_[i];
+      for (std::size_t k = 0; k < nb.size(); ++k)
+        if (return_fit_[nb[k]].weight_sum > 0.0) sum += weight[k] * round_trip_residual_[nb[k]];
       virtual_value_[v] = sum;
     });
     if (mirror.active()) mirror_vectors(virtual_value_, mirror.virtual_, virtual_count);
@@ -239,7 +260,10 @@ class HourglassStiffness {
 
   std::vector<Vec> kick_;                      ///< the last step's velocity changes (ledger only)
   std::vector<LinearFitWeights> forward_fit_;  ///< A, per virtual particle
-  std::vector<LinearFitWeights> return_fit_;   ///< R, per real particle
+  std::vector<LinearFitWeights> return_fit_;   ///< R, per real particle (per list build)
+  std::vector<double> return_weight_;             ///< R_Iv along hourglass_from_virtual_ (per list build)
+  std::vector<double> transposed_return_weight_;  ///< R_Iv along hourglass_to_real_ (per list build)
+  std::int64_t return_weights_build_ = -1;        ///< hourglass_list_build_ of return_fit_ and the weights
   std::vector<Vec> virtual_value_;             ///< a_v, then s_v
   std::vector<Vec> round_trip_residual_;       ///< V_I r_I
   NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)
