@@ -80,6 +80,13 @@ Eigen::Matrix3d embed_gradient(const Matrix<Dim>& grad_v) {
   return g;
 }
 
+/// The spin W = skew(L) of a Dim-dimensional velocity gradient, as a full 3x3 tensor.
+template <int Dim>
+Eigen::Matrix3d spin_of(const Matrix<Dim>& grad_v) {
+  const Eigen::Matrix3d g = embed_gradient<Dim>(grad_v);
+  return 0.5 * (g - g.transpose());
+}
+
 /// Drucker-Prager's refusal of a 2D plane-stress elastic part (its return keeps sigma_zz
 /// as a stress of its own: plane strain; J2 has a plane-stress return).
 template <int Dim>
@@ -209,8 +216,7 @@ class J2Plasticity {
     } else {
       if (in.predictor) {  // the half step (StressUpdate::predictor): O(dt^2) per step suffices
         if (in.objective && has_kinematic()) {
-          const Eigen::Matrix3d g = embed_gradient<Dim>(in.velocity_gradient);
-          const Eigen::Matrix3d spin = 0.5 * (g - g.transpose());
+          const Eigen::Matrix3d spin = spin_of<Dim>(in.velocity_gradient);
           state.back_stress += in.dt * (spin * state.back_stress - state.back_stress * spin);
         }
         return return_map(trial, state, in.dt);
@@ -219,9 +225,8 @@ class J2Plasticity {
       const bool rotate_back_stress = in.objective && has_kinematic();
       if (rotate_back_stress) {
         back_stress_at_n = state.back_stress;
-        const Eigen::Matrix3d g = embed_gradient<Dim>(in.velocity_gradient);
         // Q = (I - A)^-1 (I + A) = I + 2 / (1 + |a|^2) (A + A^2), A = dt/2 W with axial vector a.
-        const Eigen::Matrix3d half = 0.25 * in.dt * (g - g.transpose());
+        const Eigen::Matrix3d half = 0.5 * in.dt * spin_of<Dim>(in.velocity_gradient);
         const Eigen::Matrix3d q =
             Eigen::Matrix3d::Identity() + 2.0 / (1.0 + 0.5 * half.squaredNorm()) * (half + half * half);
         state.back_stress = q * state.back_stress * q.transpose();
@@ -278,13 +283,13 @@ class J2Plasticity {
         // dt/2 (W n - n W): the back stress's increment, made over the step, turned with
         // it over half the step on average (file comment); the consistency condition along v.
         const bool turn = has_kinematic() && start->objective;
+        const Eigen::Matrix3d spin = turn ? spin_of<Dim>(start->velocity_gradient) : Eigen::Matrix3d::Zero();
         const auto increment_along = [&](const Compact& n) {
           double along = twice_shear * contract<Dim>(relative, n), squared = twice_shear * twice_shear;  // xi_tr : v, |v|^2
           if (has_kinematic()) {
             back_direction = n;
             if (turn) {
-              const Eigen::Matrix3d g = embed_gradient<Dim>(start->velocity_gradient);
-              const Eigen::Matrix3d spin = 0.5 * (g - g.transpose()), tensor = to_tensor<Dim>(n);
+              const Eigen::Matrix3d tensor = to_tensor<Dim>(n);
               back_direction = from_tensor<Dim>(tensor + 0.5 * dt * (spin * tensor - tensor * spin));
             }
             Compact v;

@@ -6,6 +6,9 @@
 // with the logarithmic strain, which the Jaumann rate integrates exactly there.
 #pragma once
 
+#include "engine/material/linear_elastic.hpp"
+#include "engine/material/plastic_state.hpp"
+
 #include <Eigen/Core>
 
 #include <algorithm>
@@ -198,6 +201,14 @@ struct RateState {
   double plastic_strain = 0.0;
 };
 
+/// The elastic part of every model's rates below: the hypoelastic Jaumann rate
+/// C : d_e + W sigma - sigma W of the solver's own law (LinearElastic::stress_rate, seed
+/// eq. 1a), with the elastic rate of deformation d_e and the spin W.
+inline Eigen::Matrix3d jaumann_elastic_rate(const LinearElastic<3>& law, const Eigen::Matrix3d& elastic_d,
+                                            const Eigen::Matrix3d& w, const Eigen::Matrix3d& sigma) {
+  return to_tensor<3>(law.stress_rate(elastic_d + w, from_tensor<3>(sigma)));
+}
+
 /// J2 with linear isotropic and kinematic hardening as rate equations (Jaumann rates;
 /// Simo & Hughes 1998, ch. 3), rate of deformation D, spin W:
 ///   dsigma/dt = lambda tr(D - lambda_dot n) I + 2 mu (D - lambda_dot n) + W sigma - sigma W,
@@ -207,26 +218,25 @@ struct RateState {
 ///   or when unloading), |xi| = sqrt(2/3) (Y0 + H_iso eps_p).
 struct J2Rates {
   double young, nu, yield, iso, kin;
+  static Eigen::Matrix3d relative(const RateState& y) { return deviator(y.stress) - y.back_stress; }
   double yield_function(const RateState& y) const {
-    return std::sqrt(1.5) * ((y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()) - y.back_stress).norm() -
-           (yield + iso * y.plastic_strain);
+    return std::sqrt(1.5) * relative(y).norm() - (yield + iso * y.plastic_strain);
   }
   /// The flow rule's multiplier is positive (n : D > 0).
-  bool loading(const RateState& y, const Eigen::Matrix3d& d) const {
-    return ((y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()) - y.back_stress).cwiseProduct(d).sum() > 0.0;
-  }
+  bool loading(const RateState& y, const Eigen::Matrix3d& d) const { return relative(y).cwiseProduct(d).sum() > 0.0; }
   RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
-    const double mu = young / (2.0 * (1.0 + nu)), lame = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    const LinearElastic<3> law(young, nu, 1.0);
+    const double mu = law.shear_modulus();
     Eigen::Matrix3d elastic_d = d, flow = Eigen::Matrix3d::Zero();
     double multiplier = 0.0;
     if (plastic) {
-      const Eigen::Matrix3d xi = (y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()) - y.back_stress;
+      const Eigen::Matrix3d xi = relative(y);
       flow = xi / xi.norm();
       multiplier = std::max(0.0, 2.0 * mu * flow.cwiseProduct(d).sum() / (2.0 * mu + 2.0 / 3.0 * (kin + iso)));
       elastic_d -= multiplier * flow;
     }
     RateState r;
-    r.stress = lame * elastic_d.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * elastic_d + w * y.stress - y.stress * w;
+    r.stress = jaumann_elastic_rate(law, elastic_d, w, y.stress);
     r.back_stress = 2.0 / 3.0 * kin * multiplier * flow + w * y.back_stress - y.back_stress * w;
     r.plastic_strain = std::sqrt(2.0 / 3.0) * multiplier;
     return r;
@@ -244,19 +254,16 @@ struct JohnsonCookRates {
   double young, nu, a, b, n;
   double plastic_strain(const RateState& y) const { return std::pow(std::max(y.plastic_strain, 0.0), 1.0 / n); }
   double yield_function(const RateState& y) const {
-    return std::sqrt(1.5) * (y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()).norm() -
-           (a + b * std::max(y.plastic_strain, 0.0));
+    return std::sqrt(1.5) * deviator(y.stress).norm() - (a + b * std::max(y.plastic_strain, 0.0));
   }
-  bool loading(const RateState& y, const Eigen::Matrix3d& d) const {
-    return (y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity()).cwiseProduct(d).sum() > 0.0;
-  }
+  bool loading(const RateState& y, const Eigen::Matrix3d& d) const { return deviator(y.stress).cwiseProduct(d).sum() > 0.0; }
   RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
-    const double mu = young / (2.0 * (1.0 + nu)), lame = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    const LinearElastic<3> law(young, nu, 1.0);
+    const double mu = law.shear_modulus();
     Eigen::Matrix3d elastic_d = d;
     RateState r;
-    r.back_stress.setZero();
     if (plastic) {
-      const Eigen::Matrix3d xi = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
+      const Eigen::Matrix3d xi = deviator(y.stress);
       const Eigen::Matrix3d flow = xi / xi.norm();
       const double driving = std::max(0.0, 2.0 * mu * flow.cwiseProduct(d).sum());
       const double lag = 2.0 * mu * std::pow(plastic_strain(y), 1.0 - n);  // 2 mu eps_p^(1-n)
@@ -264,7 +271,7 @@ struct JohnsonCookRates {
       elastic_d -= driving * (lag / (2.0 * mu)) / denominator * flow;  // lambda_dot = 2 mu n:D eps^(1-n) / (...)
       r.plastic_strain = std::sqrt(2.0 / 3.0) * n * driving / denominator;
     }
-    r.stress = lame * elastic_d.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * elastic_d + w * y.stress - y.stress * w;
+    r.stress = jaumann_elastic_rate(law, elastic_d, w, y.stress);
     return r;
   }
 };
@@ -278,30 +285,31 @@ struct JohnsonCookRates {
 struct DruckerPragerRates {
   double young, nu, cohesion, hardening, eta, xi, eta_bar;
   double yield_function(const RateState& y) const {
-    const Eigen::Matrix3d s = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
-    return std::sqrt(0.5 * s.squaredNorm()) + eta * y.stress.trace() / 3.0 - xi * (cohesion + hardening * y.plastic_strain);
+    return std::sqrt(0.5 * deviator(y.stress).squaredNorm()) + eta * y.stress.trace() / 3.0 -
+           xi * (cohesion + hardening * y.plastic_strain);
   }
-  /// The flow rule's multiplier is positive (mu s : D / sqrt(J2) + eta K tr D > 0).
+  /// The flow rule's multiplier's numerator: mu s : D / sqrt(J2) + eta K tr D.
+  double driving(const LinearElastic<3>& law, const RateState& y, const Eigen::Matrix3d& d) const {
+    const Eigen::Matrix3d s = deviator(y.stress);
+    const double bulk = law.model_lame() + 2.0 / 3.0 * law.shear_modulus();
+    return law.shear_modulus() * s.cwiseProduct(d).sum() / std::sqrt(0.5 * s.squaredNorm()) + eta * bulk * d.trace();
+  }
+  /// The flow rule's multiplier is positive.
   bool loading(const RateState& y, const Eigen::Matrix3d& d) const {
-    const double mu = young / (2.0 * (1.0 + nu)), bulk = young / (3.0 * (1.0 - 2.0 * nu));
-    const Eigen::Matrix3d s = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
-    return mu * s.cwiseProduct(d).sum() / std::sqrt(0.5 * s.squaredNorm()) + eta * bulk * d.trace() > 0.0;
+    return driving(LinearElastic<3>(young, nu, 1.0), y, d) > 0.0;
   }
   RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
-    const double mu = young / (2.0 * (1.0 + nu)), lame = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
-    const double bulk = lame + 2.0 * mu / 3.0;
+    const LinearElastic<3> law(young, nu, 1.0);
+    const double mu = law.shear_modulus(), bulk = law.model_lame() + 2.0 / 3.0 * mu;
     Eigen::Matrix3d elastic_d = d;
     double multiplier = 0.0;
     if (plastic) {
-      const Eigen::Matrix3d s = y.stress - y.stress.trace() / 3.0 * Eigen::Matrix3d::Identity();
-      const double root_j2 = std::sqrt(0.5 * s.squaredNorm());
-      multiplier = std::max(0.0, (mu * s.cwiseProduct(d).sum() / root_j2 + eta * bulk * d.trace()) /
-                                     (mu + bulk * eta * eta_bar + xi * xi * hardening));
-      elastic_d -= multiplier * (s / (2.0 * root_j2) + eta_bar / 3.0 * Eigen::Matrix3d::Identity());
+      const Eigen::Matrix3d s = deviator(y.stress);
+      multiplier = std::max(0.0, driving(law, y, d) / (mu + bulk * eta * eta_bar + xi * xi * hardening));
+      elastic_d -= multiplier * (s / (2.0 * std::sqrt(0.5 * s.squaredNorm())) + eta_bar / 3.0 * Eigen::Matrix3d::Identity());
     }
     RateState r;
-    r.stress = lame * elastic_d.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * elastic_d + w * y.stress - y.stress * w;
-    r.back_stress.setZero();
+    r.stress = jaumann_elastic_rate(law, elastic_d, w, y.stress);
     r.plastic_strain = xi * multiplier;
     return r;
   }
