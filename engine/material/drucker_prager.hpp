@@ -33,6 +33,11 @@
 //        p_tr - K de_v = (xi / eta) [c(eps_p + (xi / eta_bar) de_v) + Perzyna term],
 //      eps_p += (xi / eta_bar) de_v.
 // Each is exact for a step of homogeneous deformation with a fixed flow direction.
+// Perzyna in the full step's cone return: the trapezoidal rule for the rate as J2's
+// (j2_plasticity.hpp), dgamma = w/2 (r_n + r_{n+1}), r = fluidity <f / (xi c0)>^N, w = dt
+// from a start outside the cone, else the part of the step after the path leaves it
+// (second order: Perzyna.DruckerPragerObjectiveSimpleShearIsSecondOrderInDt); the apex,
+// the predictor and the characteristic boundary keep backward Euler (dgamma = dt r_{n+1}).
 // Known simplification: the cut-off and the cone are returned to one after the other,
 // not as a two-surface corner return.
 #pragma once
@@ -160,9 +165,20 @@ class DruckerPrager {
       StressVector<Dim> direction = scaled<Dim>(dev, root_j2 > 0.0 ? 1.0 / (std::sqrt(2.0) * root_j2) : 0.0);
       const double target = xi_ * cohesion(eps) - eta_ * mean;  // sqrt(J2) on the cone at dgamma = 0
       if (start && target > 0.0 && root_j2 > 0.0) {
-        const StressVector<Dim> midpoint = midpoint_direction(*start, dev, mean, eps);
+        double leaves = 0.0;
+        const StressVector<Dim> midpoint = midpoint_direction(*start, dev, mean, eps, &leaves);
         const double alignment = contract<Dim>(dev, midpoint) / (std::sqrt(2.0) * root_j2);
-        dgamma = cone_increment(root_j2, alignment, target, slope_elastic - shear, dt);
+        double start_rate = -1.0;  // Perzyna's trapezoidal rule: the rate where the flow begins (file comment)
+        if (perzyna_) {
+          const double overstress = yield_function(to_tensor<Dim>(*start), eps);
+          // From the start if it lies outside the cone, else from where the path leaves it.
+          start_rate = overstress > 0.0
+                           ? perzyna_->fluidity * std::pow(overstress / (xi_ * p_.cohesion), perzyna_->exponent)
+                           : 0.0;
+          if (overstress > 0.0) leaves = 0.0;
+        }
+        dgamma = cone_increment(root_j2, alignment, target, slope_elastic - shear, dt, start_rate,
+                                std::max(1.0 - leaves, 1e-12) * dt);
         if (std::isfinite(dgamma)) direction = midpoint;
       }
       if (!std::isfinite(dgamma)) {
@@ -231,7 +247,7 @@ class DruckerPrager {
   /// cone and moves out). On the segment sigma^n + t (sigma_tr - sigma^n),
   ///   |s^n + t ds|^2 = 2 (xi c - eta (p^n + t dp))^2,  with xi c - eta p >= 0.
   StressVector<Dim> midpoint_direction(const StressVector<Dim>& start, const StressVector<Dim>& trial_deviator,
-                                       double trial_mean, double eps) const {
+                                       double trial_mean, double eps, double* leaving = nullptr) const {
     const StressVector<Dim> s0 = deviator_of<Dim>(start);
     StressVector<Dim> ds;
     for (int m = 0; m < stress_component_count<Dim>; ++m) ds[m] = trial_deviator[m] - s0[m];
@@ -253,6 +269,7 @@ class DruckerPrager {
     } else if (b != 0.0) {
       consider(-0.5 * c / b);
     }
+    if (leaving) *leaving = leaves;
     StressVector<Dim> sum;
     for (int m = 0; m < stress_component_count<Dim>; ++m) sum[m] = trial_deviator[m] + s0[m] + leaves * ds[m];
     return scaled<Dim>(sum, 1.0 / std::sqrt(contract<Dim>(sum, sum)));
@@ -263,7 +280,8 @@ class DruckerPrager {
   /// [+ Perzyna's xi c0 (dgamma / (dt fluidity))^(1/N)], r = sqrt(J2_tr), target =
   /// xi c(eps_p) - eta p_tr, slope = K eta eta_bar + xi^2 H; the root short of the point
   /// closest to the apex's axis (dgamma <= r cos / mu). NaN where there is none.
-  double cone_increment(double root_j2, double alignment, double target, double slope, double dt) const {
+  double cone_increment(double root_j2, double alignment, double target, double slope, double dt,
+                        double start_rate = -1.0, double flow_window = 0.0) const {
     const double shear = elastic_.shear_modulus(), along = root_j2 * alignment;
     const double farthest = along / shear;
     if (!(farthest > 0.0)) return std::numeric_limits<double>::quiet_NaN();
@@ -275,13 +293,17 @@ class DruckerPrager {
       const double x = constant / (half_b + std::sqrt(discriminant));
       return x <= farthest ? x : std::numeric_limits<double>::quiet_NaN();
     }
-    const double c0 = p_.cohesion, scale = dt * perzyna_->fluidity, power = 1.0 / perzyna_->exponent;
+    // The rate at the step's end: dgamma / dt (backward Euler), or with the step's start
+    // rate r_n the trapezoidal rule's 2 dgamma / dt - r_n (file comment).
+    const double c0 = p_.cohesion, power = 1.0 / perzyna_->exponent;
+    const double weight = start_rate >= 0.0 ? 2.0 / flow_window : 1.0 / dt, offset = std::max(0.0, start_rate);
     const auto residual = [&](double x, double& derivative) {
       const double distance =
           std::sqrt(std::max(0.0, root_j2 * root_j2 - 2.0 * along * shear * x + shear * shear * x * x));
-      const double viscous = xi_ * c0 * std::pow(x / scale, power);
+      const double rate = std::max(0.0, weight * x - offset);
+      const double viscous = xi_ * c0 * std::pow(rate / perzyna_->fluidity, power);
       derivative = (distance > 0.0 ? shear * (shear * x - along) / distance : 0.0) - slope -
-                   (x > 0.0 ? power * viscous / x : 0.0);
+                   (rate > 0.0 ? power * viscous / rate * weight : 0.0);
       return distance - target - slope * x - viscous;
     };
     double unused = 0.0;

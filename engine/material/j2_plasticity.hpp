@@ -31,12 +31,24 @@
 //    round-off). A path whose flow direction turns (simple shear, where the spin turns
 //    the stress) is then integrated to second order in dt (the radial return and the
 //    forward rotation: first order, 9.7e-6 of the stress in the J2 simple shear of `tsph
-//    validate plastic` at CFL 0.9, against ~1e-9 now) for the rate-independent laws; with
-//    a rate term (Johnson-Cook's C, Perzyna with N > 1) the backward-Euler rate de / dt
-//    keeps it first order, with an error 50-100 times smaller than the radial return's
-//    (a reviewer's measurement, 2026-11-27). Both returns are exact (to round-off) for a
-//    step of homogeneous deformation with a fixed flow direction, so the stepped response
-//    of a radial path is its closed form. 1D and 2D plane stress keep the radial return.
+//    validate plastic` at CFL 0.9, against ~1e-9 now) for the rate-independent laws.
+//    Johnson-Cook's rate term C sees the backward-Euler rate de / dt: first order, with an
+//    error 50-100 times smaller than the radial return's (a reviewer's measurement,
+//    2026-11-27). Both returns are exact (to round-off) for a step of homogeneous
+//    deformation with a fixed flow direction, so the stepped response of a radial path is
+//    its closed form. 1D and 2D plane stress keep the radial return.
+//    Perzyna in the full step: the trapezoidal rule for the rate, de = w/2 (r_n + r_{n+1}),
+//    r = fluidity <(q - Y) / Y0>^N, so the law sees the end rate r_{n+1} = 2 de / w - r_n
+//    (clipped at 0: the stress then ends on the surface); r_n from the start's overstress
+//    over the whole step (w = dt) when the start lies outside the surface, else r_n = 0 over
+//    the part of the step after the elastic path leaves it (w = (1 - s_c) dt). A step from
+//    outside whose flow de = r_n dt / 2 would end inside (unloading) relaxes until the
+//    overstress reaches zero, at s dt with the rate falling linearly (bisection along the
+//    elastic path, the start's flow direction), then is elastic (relaxation_ending). Second
+//    order in dt (tests/test_plasticity.cpp, Perzyna.*SecondOrder*: 1.6e-6, 4.1e-7, 1.0e-7 of
+//    the stress at 200, 400, 800 steps); backward Euler (de = dt r_{n+1}: first order, 1.7e-4
+//    in `tsph validate plastic_j2_perzyna_3d --quick`) stays the predictor's and the
+//    fallback where the trapezoidal rule has no root.
 // The yield stress Y:
 //   linear:        Y = sigma_y + H_iso eps_p;
 //   Johnson-Cook:  Y = (A + B eps_p^n) (1 + C ln max(1, rate / rate_0)) (1 - T*^m),
@@ -69,6 +81,7 @@
 #include <limits>
 #include <optional>
 #include <stdexcept>
+#include <utility>
 
 namespace tsph {
 
@@ -272,11 +285,27 @@ class J2Plasticity {
       const double norm = std::sqrt(contract<Dim>(relative, relative));
       const double q_trial = std::sqrt(1.5) * norm;
       const double yield = yield_stress(state.equivalent_plastic_strain, 0.0, state.temperature);
-      if (!(q_trial > yield)) return trial;
       const double twice_shear = 2.0 * elastic_.shear_modulus();
+      if (start && perzyna_) {
+        // Perzyna, a step that starts outside the surface and whose relaxation ends within
+        // it (unloading): the flow until then, elastic after (file comment).
+        if (const auto ended = relaxation_ending(*start, relative, state, dt)) {
+          const auto& [increment, direction] = *ended;
+          const double dgamma = std::sqrt(1.5) * increment;
+          StressVector<Dim> updated;
+          for (int m = 0; m < kComponents; ++m) updated[m] = trial[m] - twice_shear * dgamma * direction[m];
+          if (has_kinematic())
+            state.back_stress += to_tensor<Dim>(scaled<Dim>(direction, (2.0 / 3.0) * linear_.kinematic_modulus * dgamma));
+          finish(state, increment, dgamma * contract<Dim>(updated, direction));
+          return updated;
+        }
+      }
+      if (!(q_trial > yield)) return trial;
       Compact direction = scaled<Dim>(relative, 1.0 / norm);  // n (radial)
       Compact back_direction = direction;                // R(n), below
       double increment = std::numeric_limits<double>::quiet_NaN();
+      double start_rate = -1.0;  // Perzyna's trapezoidal rule: the rate where the flow begins (< 0: backward Euler)
+      double flow_window = dt;   // the part of the step with plastic flow (Perzyna)
       if (start) {
         // The full step: along the midpoint direction n, or radially where it misses the
         // surface. xi^{n+1} = xi_tr - dgamma v, v = 2 mu n + 2/3 H_kin R(n), R(n) = n +
@@ -297,10 +326,17 @@ class J2Plasticity {
               v[m] = twice_shear * n[m] + (2.0 / 3.0) * linear_.kinematic_modulus * back_direction[m];
             along = contract<Dim>(relative, v), squared = contract<Dim>(v, v);
           }
-          return plastic_increment_along(q_trial, 1.5 * std::sqrt(1.5) * along, 2.25 * squared, state, dt, yield);
+          return plastic_increment_along(q_trial, 1.5 * std::sqrt(1.5) * along, 2.25 * squared, state, dt, yield,
+                                         start_rate, flow_window);
         };
-        const Compact midpoint = midpoint_direction(deviator_of<Dim>(start->stress, from_tensor<Dim>(start->back_stress)),
-                                                    relative, yield);
+        const Compact start_relative = deviator_of<Dim>(start->stress, from_tensor<Dim>(start->back_stress));  // xi^n
+        double leaves = 0.0;
+        const Compact midpoint = midpoint_direction(start_relative, relative, yield, &leaves);
+        if (perzyna_) {  // Perzyna's rate where the flow begins (file comment): at the start if
+          // it lies outside the surface, else 0 where the step's path leaves it
+          start_rate = perzyna_rate(start_relative, state.equivalent_plastic_strain, state.temperature);
+          if (!(start_rate > 0.0)) flow_window = std::max(1.0 - leaves, 1e-12) * dt;
+        }
         increment = increment_along(midpoint);
         if (std::isfinite(increment)) direction = midpoint;
         else increment = increment_along(direction);
@@ -376,11 +412,55 @@ class J2Plasticity {
         (temperature - j.room_temperature) / (j.melt_temperature - j.room_temperature), 0.0, 1.0);
   }
 
+  /// Perzyna's rate at a relative stress xi and plastic strain: fluidity <(q - Y) / Y0>^N.
+  double perzyna_rate(const Compact& xi, double plastic_strain, double temperature) const {
+    const double overstress =
+        std::sqrt(1.5 * contract<Dim>(xi, xi)) - yield_stress(plastic_strain, 0.0, temperature);
+    return overstress > 0.0 ? perzyna_->fluidity * std::pow(overstress / linear_.yield_stress, perzyna_->exponent)
+                            : 0.0;
+  }
+
+  /// A Perzyna step from a start outside the surface (rate r_n > 0) whose trapezoidal
+  /// flow would end inside it with a zero end rate (de = r_n dt / 2 brings the stress
+  /// inside): the relaxation ends at the fraction tau of the step where the overstress
+  /// reaches zero, the rate falling linearly from r_n, de = r_n tau dt / 2, along the
+  /// start's direction n^n, with the step's elastic path xi^n + tau (xi_tr - xi^n) up to
+  /// there (bisection). The rest of the step is elastic. Returns {de, n^n}, or nothing
+  /// where the flow lasts the whole step.
+  std::optional<std::pair<double, Compact>> relaxation_ending(const StepStart& start, const Compact& trial_relative,
+                                                              const PlasticState& state, double dt) const {
+    const Compact start_relative = deviator_of<Dim>(start.stress, from_tensor<Dim>(start.back_stress));
+    const double eps = state.equivalent_plastic_strain;
+    const double rate = perzyna_rate(start_relative, eps, state.temperature);
+    if (!(rate > 0.0)) return std::nullopt;
+    const Compact n = scaled<Dim>(start_relative, 1.0 / std::sqrt(contract<Dim>(start_relative, start_relative)));
+    const double modulus = 2.0 * elastic_.shear_modulus() + (2.0 / 3.0) * linear_.kinematic_modulus;  // |v| along n
+    // The overstress at the fraction tau of the elastic path after the flow de.
+    const auto overstress = [&](double tau, double de) {
+      Compact xi;
+      for (int m = 0; m < kComponents; ++m)
+        xi[m] = start_relative[m] + tau * (trial_relative[m] - start_relative[m]) - std::sqrt(1.5) * de * modulus * n[m];
+      return std::sqrt(1.5 * contract<Dim>(xi, xi)) - yield_stress(eps + de, 0.0, state.temperature);
+    };
+    const auto flow_until = [&](double tau) { return 0.5 * rate * tau * dt; };
+    if (!(overstress(1.0, flow_until(1.0)) < 0.0)) return std::nullopt;
+    double outside = 0.0, inside = 1.0;
+    for (int i = 0; i < 100 && inside - outside > 1e-15; ++i) {
+      const double mid = 0.5 * (outside + inside);
+      (overstress(mid, flow_until(mid)) > 0.0 ? outside : inside) = mid;
+    }
+    const double de = flow_until(0.5 * (outside + inside));
+    // The rest of the step elastic only if its path stays inside: else the step's regular
+    // return (its end rate clipped at zero, on the surface).
+    if (!(overstress(1.0, de) <= 0.0)) return std::nullopt;
+    return std::make_pair(de, n);
+  }
+
   /// The flow direction of the midpoint rule (file comment): along xi_tr + xi_c, xi_c the
   /// point where the segment xi^n -> xi_tr leaves the yield surface |xi| = sqrt(2/3)
   /// Y(eps_p) (its larger crossing, clamped to the segment: xi^n itself when the step
   /// starts on or outside the surface and moves out).
-  Compact midpoint_direction(const Compact& start, const Compact& trial, double yield) const {
+  Compact midpoint_direction(const Compact& start, const Compact& trial, double yield, double* leaving = nullptr) const {
     const double radius = std::sqrt(2.0 / 3.0) * yield;
     Compact path;
     for (int m = 0; m < kComponents; ++m) path[m] = trial[m] - start[m];
@@ -391,6 +471,7 @@ class J2Plasticity {
       leaves = b <= 0.0 ? (root - b) / a : (root + b > 0.0 ? -c / (root + b) : 0.0);
     }
     leaves = std::clamp(leaves, 0.0, 1.0);
+    if (leaving) *leaving = leaves;
     Compact sum;
     for (int m = 0; m < kComponents; ++m) sum[m] = trial[m] + start[m] + leaves * path[m];
     return scaled<Dim>(sum, 1.0 / std::sqrt(contract<Dim>(sum, sum)));
@@ -404,7 +485,7 @@ class J2Plasticity {
   /// line's point closest to the surface's centre (de <= b / c). NaN where there is none
   /// (the caller returns radially). `yield`: Y(eps_p, 0).
   double plastic_increment_along(double q_trial, double b, double c, const PlasticState& state, double dt,
-                                 double yield) const {
+                                 double yield, double start_rate = -1.0, double flow_window = 0.0) const {
     const double eps = state.equivalent_plastic_strain;
     const double f_trial = q_trial - yield;
     if (!(f_trial > 0.0)) return 0.0;
@@ -421,11 +502,16 @@ class J2Plasticity {
     }
     // Nonlinear: the residual decreases on [0, b / c] (the distance to the line's closest
     // point falls, Y rises) and must change sign there.
+    // The rate the law sees at the step's end: de / dt (backward Euler), or with Perzyna
+    // and the step's start rate r_n the trapezoidal rule's 2 de / dt - r_n (file comment).
+    const auto end_rate = [&](double de) {
+      return start_rate >= 0.0 ? std::max(0.0, 2.0 * de / flow_window - start_rate) : de / dt;
+    };
     const auto residual = [&](double de, double& slope) {
       const double distance = std::sqrt(std::max(0.0, q_trial * q_trial - 2.0 * b * de + c * de * de));
-      const double y = yield_stress(eps + de, de / dt, state.temperature);
+      const double y = yield_stress(eps + de, end_rate(de), state.temperature);
       const double step = std::max(1e-8 * de, 1e-300);
-      const double y_plus = yield_stress(eps + de + step, (de + step) / dt, state.temperature);
+      const double y_plus = yield_stress(eps + de + step, end_rate(de + step), state.temperature);
       slope = (distance > 0.0 ? (c * de - b) / distance : 0.0) - (y_plus - y) / step;
       return distance - y;
     };

@@ -216,14 +216,22 @@ inline Eigen::Matrix3d jaumann_elastic_rate(const LinearElastic<3>& law, const E
 ///   n = xi / |xi|, xi = dev(sigma) - alpha,
 ///   lambda_dot = 2 mu n : D / (2 mu + 2/3 (H_kin + H_iso)) on the yield surface (0 below it,
 ///   or when unloading), |xi| = sqrt(2/3) (Y0 + H_iso eps_p).
+/// With Perzyna viscoplasticity (fluidity > 0, exponent N; J2Plasticity::Perzyna) the
+/// multiplier is the overstress law instead, deps_p/dt = fluidity <f / Y0>^N with
+/// f = sqrt(3/2) |xi| - (Y0 + H_iso eps_p) (lambda_dot = sqrt(3/2) deps_p/dt): the stress
+/// may lie outside the surface, and relaxes towards it while f > 0.
 struct J2Rates {
   double young, nu, yield, iso, kin;
+  double fluidity = 0.0, exponent = 1.0;  ///< Perzyna (fluidity 0: rate independent)
   static Eigen::Matrix3d relative(const RateState& y) { return deviator(y.stress) - y.back_stress; }
   double yield_function(const RateState& y) const {
     return std::sqrt(1.5) * relative(y).norm() - (yield + iso * y.plastic_strain);
   }
-  /// The flow rule's multiplier is positive (n : D > 0).
-  bool loading(const RateState& y, const Eigen::Matrix3d& d) const { return relative(y).cwiseProduct(d).sum() > 0.0; }
+  /// The flow rule's multiplier is positive (n : D > 0; Perzyna: or the stress lies
+  /// outside the surface, and relaxes).
+  bool loading(const RateState& y, const Eigen::Matrix3d& d) const {
+    return relative(y).cwiseProduct(d).sum() > 0.0 || (fluidity > 0.0 && yield_function(y) > 0.0);
+  }
   RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
     const LinearElastic<3> law(young, nu, 1.0);
     const double mu = law.shear_modulus();
@@ -232,7 +240,9 @@ struct J2Rates {
     if (plastic) {
       const Eigen::Matrix3d xi = relative(y);
       flow = xi / xi.norm();
-      multiplier = std::max(0.0, 2.0 * mu * flow.cwiseProduct(d).sum() / (2.0 * mu + 2.0 / 3.0 * (kin + iso)));
+      multiplier = fluidity > 0.0
+                       ? std::sqrt(1.5) * fluidity * std::pow(std::max(0.0, yield_function(y)) / yield, exponent)
+                       : std::max(0.0, 2.0 * mu * flow.cwiseProduct(d).sum() / (2.0 * mu + 2.0 / 3.0 * (kin + iso)));
       elastic_d -= multiplier * flow;
     }
     RateState r;
@@ -281,9 +291,12 @@ struct JohnsonCookRates {
 /// m = dg/dsigma = s / (2 sqrt(J2)) + eta_bar / 3 I, on the cone (de Souza Neto et al. 2008, ch. 8)
 ///   dsigma/dt = C : (D - lambda_dot m) + W sigma - sigma W,  deps_p/dt = xi lambda_dot,
 ///   lambda_dot = (mu s : D / sqrt(J2) + eta K tr D) / (mu + K eta eta_bar + xi^2 H)
-/// (0 below the cone or when unloading; the cone, not its apex).
+/// (0 below the cone or when unloading; the cone, not its apex). With Perzyna
+/// viscoplasticity (fluidity > 0, exponent N; DruckerPrager::Perzyna) the multiplier is
+/// the overstress law instead, lambda_dot = fluidity <f / (xi c0)>^N.
 struct DruckerPragerRates {
   double young, nu, cohesion, hardening, eta, xi, eta_bar;
+  double fluidity = 0.0, exponent = 1.0;  ///< Perzyna (fluidity 0: rate independent)
   double yield_function(const RateState& y) const {
     return std::sqrt(0.5 * deviator(y.stress).squaredNorm()) + eta * y.stress.trace() / 3.0 -
            xi * (cohesion + hardening * y.plastic_strain);
@@ -296,7 +309,7 @@ struct DruckerPragerRates {
   }
   /// The flow rule's multiplier is positive.
   bool loading(const RateState& y, const Eigen::Matrix3d& d) const {
-    return driving(LinearElastic<3>(young, nu, 1.0), y, d) > 0.0;
+    return driving(LinearElastic<3>(young, nu, 1.0), y, d) > 0.0 || (fluidity > 0.0 && yield_function(y) > 0.0);
   }
   RateState rates(const RateState& y, const Eigen::Matrix3d& d, const Eigen::Matrix3d& w, bool plastic) const {
     const LinearElastic<3> law(young, nu, 1.0);
@@ -305,7 +318,9 @@ struct DruckerPragerRates {
     double multiplier = 0.0;
     if (plastic) {
       const Eigen::Matrix3d s = deviator(y.stress);
-      multiplier = std::max(0.0, driving(law, y, d) / (mu + bulk * eta * eta_bar + xi * xi * hardening));
+      multiplier = fluidity > 0.0
+                       ? fluidity * std::pow(std::max(0.0, yield_function(y)) / (xi * cohesion), exponent)
+                       : std::max(0.0, driving(law, y, d) / (mu + bulk * eta * eta_bar + xi * xi * hardening));
       elastic_d -= multiplier * (s / (2.0 * std::sqrt(0.5 * s.squaredNorm())) + eta_bar / 3.0 * Eigen::Matrix3d::Identity());
     }
     RateState r;
