@@ -18,7 +18,8 @@
 //      no plastic flow can lower p) is brought back to t by a volumetric plastic strain;
 //   2. cone: the consistency condition in dgamma,
 //        sqrt(J2_tr) - G dgamma + eta (p_tr - K eta_bar dgamma) - xi c(eps_p + xi dgamma)
-//          - [Perzyna] xi c0 (dgamma / (dt fluidity))^(1/N) = 0,
+//          - [Perzyna] xi c0 (r / fluidity)^(1/N) = 0,  r = dgamma / dt (backward Euler;
+//          the full step: the trapezoidal rule's end rate, below),
 //      then s = (1 - G dgamma / sqrt(J2_tr)) s_tr, p = p_tr - K eta_bar dgamma,
 //      eps_p += xi dgamma; valid while sqrt(J2_tr) >= G dgamma. The stress update (not the
 //      characteristic boundary's return) takes the deviatoric direction at the step's
@@ -38,6 +39,9 @@
 // from a start outside the cone, else the part of the step after the path leaves it
 // (second order: Perzyna.DruckerPragerObjectiveSimpleShearIsSecondOrderInDt); the apex,
 // the predictor and the characteristic boundary keep backward Euler (dgamma = dt r_{n+1}).
+// Not J2's relaxation_ending: a step from outside the cone whose trial lies inside returns
+// elastic (the relaxation until the overstress vanishes is dropped: an O(dt) error at
+// each unloading, which no validation case covers).
 // Known simplification: the cut-off and the cone are returned to one after the other,
 // not as a two-surface corner return.
 #pragma once
@@ -277,7 +281,8 @@ class DruckerPrager {
 
   /// The cone return's dgamma along a deviatoric direction at `alignment` (cos) with s_tr:
   /// sqrt(J2) = sqrt(r^2 - 2 r cos mu dgamma + mu^2 dgamma^2) = target + slope dgamma
-  /// [+ Perzyna's xi c0 (dgamma / (dt fluidity))^(1/N)], r = sqrt(J2_tr), target =
+  /// [+ Perzyna's xi c0 (rate / fluidity)^(1/N), rate = dgamma / dt, or with start_rate
+  /// r_n >= 0 the trapezoidal 2 dgamma / w - r_n over flow_window w], r = sqrt(J2_tr), target =
   /// xi c(eps_p) - eta p_tr, slope = K eta eta_bar + xi^2 H; the root short of the point
   /// closest to the apex's axis (dgamma <= r cos / mu). NaN where there is none.
   double cone_increment(double root_j2, double alignment, double target, double slope, double dt,
@@ -294,7 +299,7 @@ class DruckerPrager {
       return x <= farthest ? x : std::numeric_limits<double>::quiet_NaN();
     }
     // The rate at the step's end: dgamma / dt (backward Euler), or with the step's start
-    // rate r_n the trapezoidal rule's 2 dgamma / dt - r_n (file comment).
+    // rate r_n the trapezoidal rule's 2 dgamma / w - r_n over the flow window w (file comment).
     const double c0 = p_.cohesion, power = 1.0 / perzyna_->exponent;
     const double weight = start_rate >= 0.0 ? 2.0 / flow_window : 1.0 / dt, offset = std::max(0.0, start_rate);
     const auto residual = [&](double x, double& derivative) {

@@ -46,9 +46,12 @@
 //    overstress reaches zero, at s dt with the rate falling linearly (bisection along the
 //    elastic path, the start's flow direction), then is elastic (relaxation_ending). Second
 //    order in dt (tests/test_plasticity.cpp, Perzyna.*SecondOrder*: 1.6e-6, 4.1e-7, 1.0e-7 of
-//    the stress at 200, 400, 800 steps); backward Euler (de = dt r_{n+1}: first order, 1.7e-4
-//    in `tsph validate plastic_j2_perzyna_3d --quick`) stays the predictor's and the
-//    fallback where the trapezoidal rule has no root.
+//    the stress at 200, 400, 800 steps); backward Euler (de = dt r_{n+1}: first order; 1.7e-4
+//    in `tsph validate plastic_j2_perzyna_3d --quick` run at CFL 0.9 on main c6c3f12) stays
+//    the predictor's, the characteristic boundary's, 1D's and plane stress's, and the
+//    fallback where the trapezoidal rule has no root. Known gap: a step from outside whose
+//    trial lies inside and whose relaxation would overshoot the surface's far side returns
+//    elastic.
 // The yield stress Y:
 //   linear:        Y = sigma_y + H_iso eps_p;
 //   Johnson-Cook:  Y = (A + B eps_p^n) (1 + C ln max(1, rate / rate_0)) (1 - T*^m),
@@ -413,7 +416,7 @@ class J2Plasticity {
   }
 
   /// Perzyna's rate at a relative stress xi and plastic strain: fluidity <(q - Y) / Y0>^N.
-  double perzyna_rate(const Compact& xi, double plastic_strain, double temperature) const {
+  [[gnu::noinline]] double perzyna_rate(const Compact& xi, double plastic_strain, double temperature) const {
     const double overstress =
         std::sqrt(1.5 * contract<Dim>(xi, xi)) - yield_stress(plastic_strain, 0.0, temperature);
     return overstress > 0.0 ? perzyna_->fluidity * std::pow(overstress / linear_.yield_stress, perzyna_->exponent)
@@ -427,7 +430,7 @@ class J2Plasticity {
   /// start's direction n^n, with the step's elastic path xi^n + tau (xi_tr - xi^n) up to
   /// there (bisection). The rest of the step is elastic. Returns {de, n^n}, or nothing
   /// where the flow lasts the whole step.
-  std::optional<std::pair<double, Compact>> relaxation_ending(const StepStart& start, const Compact& trial_relative,
+  [[gnu::noinline]] std::optional<std::pair<double, Compact>> relaxation_ending(const StepStart& start, const Compact& trial_relative,
                                                               const PlasticState& state, double dt) const {
     const Compact start_relative = deviator_of<Dim>(start.stress, from_tensor<Dim>(start.back_stress));
     const double eps = state.equivalent_plastic_strain;
@@ -479,7 +482,8 @@ class J2Plasticity {
 
   /// The equivalent plastic strain increment de of the step along the return direction
   /// v (xi^{n+1} = xi_tr - sqrt(3/2) de v; 0: elastic): the root of
-  ///   sqrt(q_tr^2 - 2 b de + c de^2) - Y(eps_p + de, de / dt) = 0,
+  ///   sqrt(q_tr^2 - 2 b de + c de^2) - Y(eps_p + de, r) = 0,  r = de / dt, or Perzyna's
+  ///   trapezoidal end rate 2 de / w - r_n (start_rate r_n >= 0, flow_window w),
   /// b = (3/2)^(3/2) xi_tr : v, c = (9/4) |v|^2 (radial, v = (2 mu + 2/3 H_kin) n: b = A q_tr,
   /// c = A^2, A = 3 mu + H_kin, and plastic_increment's q_tr - A de - Y), short of the
   /// line's point closest to the surface's centre (de <= b / c). NaN where there is none
@@ -503,7 +507,8 @@ class J2Plasticity {
     // Nonlinear: the residual decreases on [0, b / c] (the distance to the line's closest
     // point falls, Y rises) and must change sign there.
     // The rate the law sees at the step's end: de / dt (backward Euler), or with Perzyna
-    // and the step's start rate r_n the trapezoidal rule's 2 de / dt - r_n (file comment).
+    // and the step's start rate r_n the trapezoidal rule's 2 de / w - r_n over the flow
+    // window w (file comment).
     const auto end_rate = [&](double de) {
       return start_rate >= 0.0 ? std::max(0.0, 2.0 * de / flow_window - start_rate) : de / dt;
     };

@@ -338,7 +338,9 @@ struct DruckerPragerRates {
 /// that crosses the yield surface is bisected to the onset, and a plastic phase turns
 /// elastic at a step where the model unloads (`loading` false: the flow rule's multiplier
 /// would be negative), so that every kink of the rates falls on a step boundary and the
-/// order holds (tests/test_plasticity.cpp: converged to ~1e-13).
+/// order holds (tests/test_plasticity.cpp: converged to ~1e-13). With Perzyna the kink
+/// where a relaxing overstress <f> reaches zero falls inside a step (O(h^2) there; the
+/// Perzyna cases' references take steps 4 times shorter).
 template <class Rates, class Scale>
 RateState integrate_gradient_path(const Rates& model, const Eigen::Matrix3d& grad_v, Scale&& f,
                                   std::vector<double> breakpoints, double t, double step) {
