@@ -39,9 +39,8 @@
 // from a start outside the cone, else the part of the step after the path leaves it
 // (second order: Perzyna.DruckerPragerObjectiveSimpleShearIsSecondOrderInDt); the apex,
 // the predictor and the characteristic boundary keep backward Euler (dgamma = dt r_{n+1}).
-// Not J2's relaxation_ending: a step from outside the cone whose trial lies inside returns
-// elastic (the relaxation until the overstress vanishes is dropped: an O(dt) error at
-// each unloading, which no validation case covers).
+// A step from outside the cone whose relaxation ends within it (unloading) relaxes until
+// f = 0, then is elastic, as J2's (relaxation_ending).
 // Known simplification: the cut-off and the cone are returned to one after the other,
 // not as a two-surface corner return.
 #pragma once
@@ -58,6 +57,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace tsph {
 
@@ -157,6 +157,24 @@ class DruckerPrager {
       work += mean * volumetric;
       state.yielding = true;
     }
+    // Perzyna, a step that starts outside the cone and whose relaxation ends within it
+    // (unloading): the flow until then, elastic after (relaxation_ending).
+    if (start && perzyna_) {
+      if (const auto ended = relaxation_ending(*start, dev, mean, eps, dt)) {
+        const auto& [dgamma, direction] = *ended;
+        const double along = std::sqrt(2.0) * shear * dgamma;
+        for (int m = 0; m < stress_component_count<Dim>; ++m) dev[m] -= along * direction[m];
+        mean -= bulk * eta_bar_ * dgamma;
+        eps += xi_ * dgamma;
+        work += dgamma * (contract<Dim>(dev, direction) / std::sqrt(2.0) + eta_bar_ * mean);
+        state.yielding = true;
+        state.equivalent_plastic_strain = eps;
+        state.plastic_work += work;
+        for (int m = 0; m < stress_component_count<Dim>; ++m)
+          if (is_normal_component<Dim>(m)) dev[m] += mean;
+        return dev;
+      }
+    }
     // 2. Cone.
     const double root_j2 = std::sqrt(0.5 * contract<Dim>(dev, dev));
     const double f_trial = root_j2 + eta_ * mean - xi_ * cohesion(eps);
@@ -245,6 +263,47 @@ class DruckerPrager {
   }
 
  private:
+  /// A Perzyna step from a start sigma^n outside the cone (rate r_n = fluidity <f_n /
+  /// (xi c0)>^N > 0) whose trapezoidal flow dgamma = r_n dt / 2 would end inside it (as
+  /// J2Plasticity::relaxation_ending): the relaxation ends at the fraction tau of the step
+  /// where f reaches zero along the elastic path sigma^n + tau (sigma_tr - sigma^n) less the
+  /// flow r_n tau dt / 2 (the start's direction: deviatoric n^n, volumetric eta_bar), the
+  /// rest of the step elastic if its path stays inside. Returns {dgamma, n^n}, or nothing
+  /// (the step's regular return) where the flow lasts the whole step, would pass the
+  /// apex, or the path leaves the cone again.
+  [[gnu::noinline]] std::optional<std::pair<double, StressVector<Dim>>> relaxation_ending(
+      const StressVector<Dim>& start, const StressVector<Dim>& trial_deviator, double trial_mean, double eps,
+      double dt) const {
+    const StressVector<Dim> s0 = deviator_of<Dim>(start);
+    const double p0 = mean_of<Dim>(start);
+    const double f0 = std::sqrt(0.5 * contract<Dim>(s0, s0)) + eta_ * p0 - xi_ * cohesion(eps);
+    const double s0_norm = std::sqrt(contract<Dim>(s0, s0));
+    if (!(f0 > 0.0 && s0_norm > 0.0)) return std::nullopt;  // s0 = 0: held at the apex
+    const double rate = perzyna_->fluidity * std::pow(f0 / (xi_ * p_.cohesion), perzyna_->exponent);
+    const StressVector<Dim> n = scaled<Dim>(s0, 1.0 / s0_norm);
+    const double shear = elastic_.shear_modulus(), bulk = elastic_.model_lame() + 2.0 * shear / 3.0;
+    // f at the fraction tau of the elastic path after the flow dgamma; `along`: s . n there.
+    const auto yield_at = [&](double tau, double dgamma, double& along) {
+      StressVector<Dim> s;
+      for (int m = 0; m < stress_component_count<Dim>; ++m)
+        s[m] = s0[m] + tau * (trial_deviator[m] - s0[m]) - std::sqrt(2.0) * shear * dgamma * n[m];
+      along = contract<Dim>(s, n);
+      const double p = p0 + tau * (trial_mean - p0) - bulk * eta_bar_ * dgamma;
+      return std::sqrt(0.5 * contract<Dim>(s, s)) + eta_ * p - xi_ * cohesion(eps + xi_ * dgamma);
+    };
+    const auto flow_until = [&](double tau) { return 0.5 * rate * tau * dt; };
+    double along = 0.0;
+    if (!(yield_at(1.0, flow_until(1.0), along) < 0.0)) return std::nullopt;
+    double outside = 0.0, inside = 1.0;
+    for (int i = 0; i < 100 && inside - outside > 1e-15; ++i) {
+      const double mid = 0.5 * (outside + inside);
+      (yield_at(mid, flow_until(mid), along) > 0.0 ? outside : inside) = mid;
+    }
+    const double dgamma = flow_until(0.5 * (outside + inside));
+    if (!(yield_at(1.0, dgamma, along) <= 0.0 && along >= 0.0)) return std::nullopt;
+    return std::make_pair(dgamma, n);
+  }
+
   /// The deviatoric flow direction of the midpoint rule (file comment): along s_tr + s_c,
   /// s_c the deviator where the segment sigma^n -> sigma_tr leaves the cone f = 0 (its
   /// larger crossing in [0, 1]; sigma^n itself when the step starts on or outside the
