@@ -157,28 +157,30 @@ class DruckerPrager {
       work += mean * volumetric;
       state.yielding = true;
     }
-    // Perzyna, a step that starts outside the cone and whose relaxation ends within it
-    // (unloading): the flow until then, elastic after (relaxation_ending).
+    // The return along the cone's flow direction by dgamma: s -= sqrt(2) mu dgamma n (the
+    // deviatoric flow n / sqrt(2), |n| = 1; no further than the apex), p -= K eta_bar dgamma.
+    const auto flow = [&](double dgamma, const StressVector<Dim>& direction) {
+      const double along = std::min(std::sqrt(2.0) * shear * dgamma, contract<Dim>(dev, direction));
+      for (int m = 0; m < stress_component_count<Dim>; ++m) dev[m] -= along * direction[m];
+      mean -= bulk * eta_bar_ * dgamma;
+      eps += xi_ * dgamma;
+      work += dgamma * (contract<Dim>(dev, direction) / std::sqrt(2.0) + eta_bar_ * mean);  // sigma : d eps^p
+      state.yielding = true;
+    };
+    // Perzyna's rate at the step's start (the full step; file comment: the trapezoidal
+    // rule; < 0: backward Euler), and a step from outside the cone whose relaxation ends
+    // within it (unloading): the flow until then, elastic after (relaxation_ending).
+    double start_rate = -1.0;
+    std::optional<std::pair<double, StressVector<Dim>>> ended;
     if (start && perzyna_) {
-      if (const auto ended = relaxation_ending(*start, dev, mean, eps, dt)) {
-        const auto& [dgamma, direction] = *ended;
-        const double along = std::sqrt(2.0) * shear * dgamma;
-        for (int m = 0; m < stress_component_count<Dim>; ++m) dev[m] -= along * direction[m];
-        mean -= bulk * eta_bar_ * dgamma;
-        eps += xi_ * dgamma;
-        work += dgamma * (contract<Dim>(dev, direction) / std::sqrt(2.0) + eta_bar_ * mean);
-        state.yielding = true;
-        state.equivalent_plastic_strain = eps;
-        state.plastic_work += work;
-        for (int m = 0; m < stress_component_count<Dim>; ++m)
-          if (is_normal_component<Dim>(m)) dev[m] += mean;
-        return dev;
-      }
+      start_rate = perzyna_rate(yield_function(to_tensor<Dim>(*start), eps));
+      ended = relaxation_ending(*start, start_rate, dev, mean, eps, dt);
+      if (ended) flow(ended->first, ended->second);
     }
     // 2. Cone.
     const double root_j2 = std::sqrt(0.5 * contract<Dim>(dev, dev));
     const double f_trial = root_j2 + eta_ * mean - xi_ * cohesion(eps);
-    if (f_trial > 0.0) {
+    if (!ended && f_trial > 0.0) {
       state.yielding = true;
       const double slope_elastic = shear + bulk * eta_ * eta_bar_ + xi_ * xi_ * p_.hardening;
       // With the step's start: along the midpoint deviatoric direction (file comment),
@@ -190,15 +192,7 @@ class DruckerPrager {
         double leaves = 0.0;
         const StressVector<Dim> midpoint = midpoint_direction(*start, dev, mean, eps, &leaves);
         const double alignment = contract<Dim>(dev, midpoint) / (std::sqrt(2.0) * root_j2);
-        double start_rate = -1.0;  // Perzyna's trapezoidal rule: the rate where the flow begins (file comment)
-        if (perzyna_) {
-          const double overstress = yield_function(to_tensor<Dim>(*start), eps);
-          // From the start if it lies outside the cone, else from where the path leaves it.
-          start_rate = overstress > 0.0
-                           ? perzyna_->fluidity * std::pow(overstress / (xi_ * p_.cohesion), perzyna_->exponent)
-                           : 0.0;
-          if (overstress > 0.0) leaves = 0.0;
-        }
+        if (start_rate > 0.0) leaves = 0.0;  // Perzyna: from the start outside the cone, else from where the path leaves it
         dgamma = cone_increment(root_j2, alignment, target, slope_elastic - shear, dt, start_rate,
                                 std::max(1.0 - leaves, 1e-12) * dt);
         if (std::isfinite(dgamma)) direction = midpoint;
@@ -221,13 +215,7 @@ class DruckerPrager {
         if (!(root_j2 - shear * dgamma >= 0.0 || eta_bar_ == 0.0)) dgamma = -1.0;  // past the apex
       }
       if (dgamma >= 0.0) {
-        // s = s_tr - 2 mu dgamma n / sqrt(2) (the deviatoric flow n / sqrt(2), |n| = 1),
-        // no further than the apex.
-        const double along = std::min(std::sqrt(2.0) * shear * dgamma, contract<Dim>(dev, direction));
-        for (int m = 0; m < stress_component_count<Dim>; ++m) dev[m] -= along * direction[m];
-        mean -= bulk * eta_bar_ * dgamma;
-        eps += xi_ * dgamma;
-        work += dgamma * (contract<Dim>(dev, direction) / std::sqrt(2.0) + eta_bar_ * mean);  // sigma : d eps^p
+        flow(dgamma, direction);
       } else {
         // 3. Apex (eta_bar > 0 here: with psi = 0 the cut-off kept p at or below it).
         const double alpha = xi_ / eta_bar_, beta = xi_ / eta_;
@@ -263,8 +251,14 @@ class DruckerPrager {
   }
 
  private:
-  /// A Perzyna step from a start sigma^n outside the cone (rate r_n = fluidity <f_n /
-  /// (xi c0)>^N > 0) whose trapezoidal flow dgamma = r_n dt / 2 would end inside it (as
+  /// Perzyna's rate at the overstress f: fluidity <f / (xi c0)>^N.
+  double perzyna_rate(double overstress) const {
+    return overstress > 0.0 ? perzyna_->fluidity * std::pow(overstress / (xi_ * p_.cohesion), perzyna_->exponent)
+                            : 0.0;
+  }
+
+  /// A Perzyna step from a start sigma^n outside the cone (rate r_n = perzyna_rate(f_n) >
+  /// 0) whose trapezoidal flow dgamma = r_n dt / 2 would end inside it (as
   /// J2Plasticity::relaxation_ending): the relaxation ends at the fraction tau of the step
   /// where f reaches zero along the elastic path sigma^n + tau (sigma_tr - sigma^n) less the
   /// flow r_n tau dt / 2 (the start's direction: deviatoric n^n, volumetric eta_bar), the
@@ -272,14 +266,12 @@ class DruckerPrager {
   /// (the step's regular return) where the flow lasts the whole step, would pass the
   /// apex, or the path leaves the cone again.
   [[gnu::noinline]] std::optional<std::pair<double, StressVector<Dim>>> relaxation_ending(
-      const StressVector<Dim>& start, const StressVector<Dim>& trial_deviator, double trial_mean, double eps,
-      double dt) const {
+      const StressVector<Dim>& start, double rate, const StressVector<Dim>& trial_deviator, double trial_mean,
+      double eps, double dt) const {
     const StressVector<Dim> s0 = deviator_of<Dim>(start);
     const double p0 = mean_of<Dim>(start);
-    const double f0 = std::sqrt(0.5 * contract<Dim>(s0, s0)) + eta_ * p0 - xi_ * cohesion(eps);
     const double s0_norm = std::sqrt(contract<Dim>(s0, s0));
-    if (!(f0 > 0.0 && s0_norm > 0.0)) return std::nullopt;  // s0 = 0: held at the apex
-    const double rate = perzyna_->fluidity * std::pow(f0 / (xi_ * p_.cohesion), perzyna_->exponent);
+    if (!(rate > 0.0 && s0_norm > 0.0)) return std::nullopt;  // s0 = 0: held at the apex
     const StressVector<Dim> n = scaled<Dim>(s0, 1.0 / s0_norm);
     const double shear = elastic_.shear_modulus(), bulk = elastic_.model_lame() + 2.0 * shear / 3.0;
     // f at the fraction tau of the elastic path after the flow dgamma; `along`: s . n there.

@@ -289,26 +289,25 @@ class J2Plasticity {
       const double q_trial = std::sqrt(1.5) * norm;
       const double yield = yield_stress(state.equivalent_plastic_strain, 0.0, state.temperature);
       const double twice_shear = 2.0 * elastic_.shear_modulus();
+      // The full step's start: xi^n (read on yielding, and by Perzyna before the yield
+      // check), and Perzyna's rate r_n there (file comment: the trapezoidal rule; < 0:
+      // backward Euler).
+      const auto relative_at_start = [&] { return deviator_of<Dim>(start->stress, from_tensor<Dim>(start->back_stress)); };
+      Compact start_relative;  // set where read
+      double start_rate = -1.0;
       if (start && perzyna_) {
-        // Perzyna, a step that starts outside the surface and whose relaxation ends within
-        // it (unloading): the flow until then, elastic after (file comment).
-        if (const auto ended = relaxation_ending(*start, relative, state, dt)) {
-          const auto& [increment, direction] = *ended;
-          const double dgamma = std::sqrt(1.5) * increment;
-          StressVector<Dim> updated;
-          for (int m = 0; m < kComponents; ++m) updated[m] = trial[m] - twice_shear * dgamma * direction[m];
-          if (has_kinematic())
-            state.back_stress += to_tensor<Dim>(scaled<Dim>(direction, (2.0 / 3.0) * linear_.kinematic_modulus * dgamma));
-          finish(state, increment, dgamma * contract<Dim>(updated, direction));
-          return updated;
-        }
+        start_relative = relative_at_start();
+        start_rate = perzyna_rate(start_relative, state.equivalent_plastic_strain, state.temperature);
+        // A step from outside the surface whose relaxation ends within it (unloading):
+        // the flow until then, elastic after.
+        if (const auto ended = relaxation_ending(start_relative, start_rate, relative, state, dt))
+          return flow(trial, state, ended->first, ended->second, ended->second);
       }
       if (!(q_trial > yield)) return trial;
       Compact direction = scaled<Dim>(relative, 1.0 / norm);  // n (radial)
       Compact back_direction = direction;                // R(n), below
       double increment = std::numeric_limits<double>::quiet_NaN();
-      double start_rate = -1.0;  // Perzyna's trapezoidal rule: the rate where the flow begins (< 0: backward Euler)
-      double flow_window = dt;   // the part of the step with plastic flow (Perzyna)
+      double flow_window = dt;  // Perzyna: the part of the step with plastic flow
       if (start) {
         // The full step: along the midpoint direction n, or radially where it misses the
         // surface. xi^{n+1} = xi_tr - dgamma v, v = 2 mu n + 2/3 H_kin R(n), R(n) = n +
@@ -332,14 +331,11 @@ class J2Plasticity {
           return plastic_increment_along(q_trial, 1.5 * std::sqrt(1.5) * along, 2.25 * squared, state, dt, yield,
                                          start_rate, flow_window);
         };
-        const Compact start_relative = deviator_of<Dim>(start->stress, from_tensor<Dim>(start->back_stress));  // xi^n
+        if (!perzyna_) start_relative = relative_at_start();
         double leaves = 0.0;
         const Compact midpoint = midpoint_direction(start_relative, relative, yield, &leaves);
-        if (perzyna_) {  // Perzyna's rate where the flow begins (file comment): at the start if
-          // it lies outside the surface, else 0 where the step's path leaves it
-          start_rate = perzyna_rate(start_relative, state.equivalent_plastic_strain, state.temperature);
-          if (!(start_rate > 0.0)) flow_window = std::max(1.0 - leaves, 1e-12) * dt;
-        }
+        // Perzyna from a start inside the surface: r_n = 0 where the step's path leaves it.
+        if (perzyna_ && !(start_rate > 0.0)) flow_window = std::max(1.0 - leaves, 1e-12) * dt;
         increment = increment_along(midpoint);
         if (std::isfinite(increment)) direction = midpoint;
         else increment = increment_along(direction);
@@ -348,13 +344,7 @@ class J2Plasticity {
         increment = plastic_increment(q_trial, 1.5 * twice_shear, state, dt, yield);
         back_direction = direction;
       }
-      const double dgamma = std::sqrt(1.5) * increment;  // |d eps^p| = sqrt(3/2) de
-      StressVector<Dim> updated;  // sigma_tr - 2 mu dgamma n (n is deviatoric: the mean stays)
-      for (int m = 0; m < kComponents; ++m) updated[m] = trial[m] - twice_shear * dgamma * direction[m];
-      if (has_kinematic())
-        state.back_stress += to_tensor<Dim>(scaled<Dim>(back_direction, (2.0 / 3.0) * linear_.kinematic_modulus * dgamma));
-      finish(state, increment, dgamma * contract<Dim>(updated, direction));
-      return updated;
+      return flow(trial, state, increment, direction, back_direction);
     }
   }
 
@@ -415,6 +405,20 @@ class J2Plasticity {
         (temperature - j.room_temperature) / (j.melt_temperature - j.room_temperature), 0.0, 1.0);
   }
 
+  /// The return of the trial stress along the flow direction n by the plastic strain
+  /// increment de (file comment): sigma_tr - 2 mu dgamma n, alpha += 2/3 H_kin dgamma
+  /// R(n) (`back_direction`), dgamma = sqrt(3/2) de.
+  StressVector<Dim> flow(const StressVector<Dim>& trial, PlasticState& state, double increment,
+                         const Compact& direction, const Compact& back_direction) const {
+    const double dgamma = std::sqrt(1.5) * increment;  // |d eps^p| = sqrt(3/2) de
+    StressVector<Dim> updated;  // n is deviatoric: the mean stays
+    for (int m = 0; m < kComponents; ++m) updated[m] = trial[m] - 2.0 * elastic_.shear_modulus() * dgamma * direction[m];
+    if (has_kinematic())
+      state.back_stress += to_tensor<Dim>(scaled<Dim>(back_direction, (2.0 / 3.0) * linear_.kinematic_modulus * dgamma));
+    finish(state, increment, dgamma * contract<Dim>(updated, direction));
+    return updated;
+  }
+
   /// Perzyna's rate at a relative stress xi and plastic strain: fluidity <(q - Y) / Y0>^N.
   [[gnu::noinline]] double perzyna_rate(const Compact& xi, double plastic_strain, double temperature) const {
     const double overstress =
@@ -423,19 +427,18 @@ class J2Plasticity {
                             : 0.0;
   }
 
-  /// A Perzyna step from a start outside the surface (rate r_n > 0) whose trapezoidal
+  /// A Perzyna step from a start xi^n outside the surface (rate r_n > 0) whose trapezoidal
   /// flow would end inside it with a zero end rate (de = r_n dt / 2 brings the stress
   /// inside): the relaxation ends at the fraction tau of the step where the overstress
   /// reaches zero, the rate falling linearly from r_n, de = r_n tau dt / 2, along the
   /// start's direction n^n, with the step's elastic path xi^n + tau (xi_tr - xi^n) up to
   /// there (bisection). The rest of the step is elastic. Returns {de, n^n}, or nothing
   /// where the flow lasts the whole step.
-  [[gnu::noinline]] std::optional<std::pair<double, Compact>> relaxation_ending(const StepStart& start, const Compact& trial_relative,
-                                                              const PlasticState& state, double dt) const {
-    const Compact start_relative = deviator_of<Dim>(start.stress, from_tensor<Dim>(start.back_stress));
-    const double eps = state.equivalent_plastic_strain;
-    const double rate = perzyna_rate(start_relative, eps, state.temperature);
+  [[gnu::noinline]] std::optional<std::pair<double, Compact>> relaxation_ending(
+      const Compact& start_relative, double rate, const Compact& trial_relative, const PlasticState& state,
+      double dt) const {
     if (!(rate > 0.0)) return std::nullopt;
+    const double eps = state.equivalent_plastic_strain;
     const Compact n = scaled<Dim>(start_relative, 1.0 / std::sqrt(contract<Dim>(start_relative, start_relative)));
     const double modulus = 2.0 * elastic_.shear_modulus() + (2.0 / 3.0) * linear_.kinematic_modulus;  // |v| along n
     // The overstress at the fraction tau of the elastic path after the flow de.
