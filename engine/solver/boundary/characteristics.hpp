@@ -76,6 +76,35 @@ struct CharacteristicBoundary {
     state.add(counts);
   }
 
+  /// The stretch d u_m / d m of a boundary particle on a further symmetry plane of unit
+  /// normal m (a corner: symmetry_planes.hpp) at n+1/2, from that plane's outgoing P
+  /// characteristic (the file comment's relation along m, with u_m at n+1 the plane's
+  /// speed w_m) less its lambda div_t v_t term, which the constitutive law puts back:
+  ///   M d_m u_m = Z (w_m - u_m^n) / dt - c_p d_m (t_m - Z u_m)^n - c_p div_t (sigma m)_t - Z b_m
+  /// (d_m at n from the real set, as for the own plane's normal derivative; div_t over
+  /// the directions orthogonal to m at n+1/2 from the virtual set). The stress t_m that
+  /// the constitutive update then gives is the plane's characteristic value. Before, t_m
+  /// followed the own frame's tangential update with the virtual set's one-sided estimate
+  /// of d_m u_m, blind to the held u_m: in a block between four symmetry planes a stress
+  /// mode at a corner grew by 1.4e-3 per step at CFL 0.9 (the step map's leading real
+  /// eigenvalue; gone now, others remain), and a plane wave's corners strayed from their
+  /// wall (docs/notes/2026-11-27-wall-corners.md).
+  static double corner_stretch(const SolverState<Dim>& state, std::size_t b, const Vec& m, double plane_speed,
+                               double force_m, double dt, double c_p, double z_p, double modulus) {
+    const double normal_velocity = state.boundary.velocity[b].dot(m);
+    const double stress_dm = m.dot(directional<Dim>(state.boundary.stress_gradient[b], m) * m);
+    const double velocity_dm = m.dot(state.boundary.velocity_gradient[b] * m);
+    // div_t (sigma m)_t = sum_{d,e} P_de d_d (sigma m)_e, P = I - m m^T (virtual set, n+1/2).
+    const Mat projector = Mat::Identity() - m * m.transpose();
+    double traction_divergence = 0.0;
+    for (int d = 0; d < Dim; ++d)
+      traction_divergence +=
+          projector.row(d).dot(directional<Dim>(state.boundary.half_stress_gradient[b], Vec::Unit(d)) * m);
+    return (z_p * (plane_speed - normal_velocity) / dt - c_p * (stress_dm - z_p * velocity_dm) -
+            c_p * traction_divergence - z_p * force_m) /
+           modulus;
+  }
+
   /// Step 3: characteristic boundary conditions at t_new (see the file comment).
   template <class Model>
   static void apply(SolverState<Dim>& state, const Model& model, double dt, double t_new) {
@@ -128,7 +157,20 @@ struct CharacteristicBoundary {
       }
       if (state.settings.surface_extrapolation) SurfaceExtrapolation<Dim>::apply(state, b, i, frame, t_new, velocity_dt);
       // Effective body force, with the damping, at time n.
-      const Vec force = frame.transpose() * (state.settings.body_force - state.settings.damping * state.boundary.velocity[b]);
+      const Vec force_global = state.settings.body_force - state.settings.damping * state.boundary.velocity[b];
+      const Vec force = frame.transpose() * force_global;
+      // A particle on further symmetry planes (a corner): each plane's stretch from its own
+      // characteristic relation (see corner_stretch).
+      if (SymmetryPlanes<Dim>::any(state, b))
+        for (int e = 0; e < 2; ++e) {
+          const Vec& m = state.boundary.extra_normal[b][static_cast<std::size_t>(e)];
+          if (m.squaredNorm() == 0.0) continue;
+          const Vec m_frame = frame.transpose() * m;
+          const double stretch =
+              corner_stretch(state, b, m, SymmetryPlanes<Dim>::normal_speed(state, b, e, t_new), force_global.dot(m),
+                             dt, c_p, z_p, modulus);
+          velocity_dt += (stretch - m_frame.dot(velocity_dt * m_frame)) * (m_frame * m_frame.transpose());
+        }
 
       // Updated Lagrangian: the Jaumann terms (W sigma - sigma W) of the normal stress
       // components t_n, t_k (the frame is held fixed over the step), with the spin W from
