@@ -101,6 +101,13 @@ expect 0 "spectral radius [0-9.]+" spectrum "$cases/cantilever_2d.toml" --set ge
 checks=$((checks + 1))
 [ "$(wc -l <"$out/spectrum/eigenvalues.csv")" -eq 442 ] && [ -s "$out/spectrum/fixed_point.csv" ] ||
   fail "tsph spectrum files: $(ls "$out/spectrum")"
+# --write-map: G itself (441 x 441 float64) and what each of its rows is.
+expect 0 "spectral radius [0-9.]+" spectrum "$cases/cantilever_2d.toml" --set geometry.spacing=0.05 --write-map \
+  --out "$out/spectrum_map"
+checks=$((checks + 1))
+[ "$(wc -c <"$out/spectrum_map/map.f64")" -eq $((441 * 441 * 8)) ] && [ "$(wc -l <"$out/spectrum_map/map_rows.csv")" -eq 442 ] &&
+  cmp -s "$out/spectrum/eigenvalues.csv" "$out/spectrum_map/eigenvalues.csv" ||
+  fail "tsph spectrum --write-map files: $(ls -l "$out/spectrum_map")"
 expect 2 "dimension 2 or 3" spectrum "$cases/bar.toml" --out "$out/spectrum"
 
 # tsph converge: the bar at alpha 1.2 and two spacings; the observed rates printed.

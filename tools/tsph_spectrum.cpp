@@ -30,6 +30,7 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <numeric>
@@ -46,6 +47,7 @@ struct SpectrumOptions {
   int modes = 8;
   std::string out = "out/spectrum";
   int threads = -1;
+  bool write_map = false;
 };
 
 /// Where a particle is: the part of the beam its mode weight is summed over.
@@ -405,6 +407,24 @@ int run(const SpectrumOptions& o, const CaseFile& c) {
     fixed_csv += "\n";
   }
   write_file_atomically(out / "fixed_point.csv", fixed_csv);
+  if (o.write_map) {  // G itself, for analyses of its own (numpy.fromfile(..., '<f8').reshape(n, n))
+    std::string bytes(static_cast<std::size_t>(n * n) * sizeof(double), '\0');
+    char* at = bytes.data();
+    for (Eigen::Index r = 0; r < n; ++r)
+      for (Eigen::Index k = 0; k < n; ++k, at += sizeof(double)) {
+        const double value = map(r, k);
+        std::memcpy(at, &value, sizeof(double));
+      }
+    write_file_atomically(out / "map.f64", bytes);
+    std::string rows = "row,particle,i,j,k,region,field\n";
+    for (std::size_t p = 0; p < geometry.index.size(); ++p)
+      for (std::size_t slot = 0; slot < per; ++slot) {
+        const auto& idx = geometry.index[p];
+        fmt::format_to(std::back_inserter(rows), "{},{},{},{},{},{},{}\n", p * per + slot, p, idx[0], idx[1], idx[2],
+                       kRegionNames[geometry.region[p]], field_name<Dim>(layout.unknowns[p * per + slot]));
+      }
+    write_file_atomically(out / "map_rows.csv", rows);
+  }
   fmt::print("SVD, analysis and files in {:.1f} s; output in {}\n", lap(), o.out);
   return kExitOk;
   }
@@ -435,6 +455,9 @@ Subcommand add_spectrum(CLI::App& app) {
   sub->add_option("--modes", o->modes, "leading modes written to modes.csv")->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--out", o->out, "output directory")->capture_default_str();
+  sub->add_flag("--write-map", o->write_map,
+                "also write G (map.f64: n x n float64, row-major, little-endian; map_rows.csv: what each row is; "
+                "the stress scaled by rho c_p, the displacement by dt)");
   sub->add_option("--threads", o->threads, "OpenMP threads (0: OpenMP default; overrides the case's threads)")
       ->check(CLI::NonNegativeNumber);
   return {sub, [o] {
