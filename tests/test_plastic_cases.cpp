@@ -246,10 +246,11 @@ TEST(SymmetryPlane, RodBetweenFourPlanesIsTheBarInUniaxialStrain) {
 // the end plane's middle particle. A corner's sigma_xx is the normal stress of its further
 // plane; it follows that plane's own characteristic relation (CharacteristicBoundary::
 // corner_stretch). Before, it followed the own frame's tangential update with the virtual
-// set's one-sided d v_x / d x, blind to the held v_x = 0: the corners then differed from the
-// middle by up to 3.2 % of rho c v0 during the reflection, now 0.7 %. The order of the
-// conditions puts the left corners under the side planes (the end plane further) and the
-// right corners under the end plane (the side planes further): both kinds are checked.
+// set's one-sided d v_x / d x, blind to the held v_x = 0. The order of the conditions puts
+// the left corners under the side planes, the end plane further: they differed from the
+// middle by up to 3.2 % of rho c v0 during the reflection, now 0.7 % (the same at CFL 0.25
+// and 0.9: 3.8 / 2.5 % before). The right corners, under the end plane with the side
+// planes further, keep their sigma_xx from their own condition (0.8 % before, 0.7 %).
 TEST(SymmetryPlane, CornerOfTwoPlanesFollowsThePlaneWave) {
   const double v0 = 0.01, rho = 1000.0, young = 1e6, nu = 0.3, dx = 0.025;
   const double lame = young * nu / ((1 + nu) * (1 - 2 * nu)), mu = young / (2 * (1 + nu));
@@ -325,7 +326,7 @@ fields = ["stress", "displacement"]
     ++frames;
   };
   run_case(c, options);
-  EXPECT_GT(frames, 20);
+  EXPECT_GT(frames, 5);
   EXPECT_GT(largest_stress, 0.4 * impedance * v0);  // the pulse's halves, and their reflections
   EXPECT_LT(corner_deviation, 0.012 * impedance * v0);
 }

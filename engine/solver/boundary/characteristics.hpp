@@ -83,7 +83,11 @@ struct CharacteristicBoundary {
   ///   M d_m u_m = Z (w_m - u_m^n) / dt - c_p d_m (t_m - Z u_m)^n - c_p div_t (sigma m)_t - Z b_m
   /// (d_m at n from the real set, as for the own plane's normal derivative; div_t over
   /// the directions orthogonal to m at n+1/2 from the virtual set). The stress t_m that
-  /// the constitutive update then gives is the plane's characteristic value. Before, t_m
+  /// the constitutive update then gives is the plane's characteristic value. m must point
+  /// out of the body (the relation is the outgoing one; -m would give the incoming one):
+  /// the caller orients it (outward_plane_normal). The Z (w_m - u_m^n) / dt term is zero
+  /// while the projection holds u_m^n = w_m(t_n); otherwise it is the impulse that brings
+  /// u_m to the plane's speed. Before, t_m
   /// followed the own frame's tangential update with the virtual set's one-sided estimate
   /// of d_m u_m, blind to the held u_m: in a block between four symmetry planes a stress
   /// mode at a corner grew by 1.4e-3 per step at CFL 0.9 (the step map's leading real
@@ -103,6 +107,16 @@ struct CharacteristicBoundary {
     return (z_p * (plane_speed - normal_velocity) / dt - c_p * (stress_dm - z_p * velocity_dm) -
             c_p * traction_divergence - z_p * force_m) /
            modulus;
+  }
+
+  /// A further plane's unit normal m (symmetry_planes.hpp: its sign follows the kernel
+  /// normal, which the projections do not mind) turned to point out of the body: the real
+  /// neighbours of particle i lie on its inner side.
+  static Vec outward_plane_normal(const SolverState<Dim>& state, std::uint32_t i, const Vec& m) {
+    double inward = 0.0;
+    for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
+      inward += (state.real.position_of(j) - state.real.position_of(i)).dot(m);
+    return inward > 0.0 ? Vec(-m) : m;
   }
 
   /// Step 3: characteristic boundary conditions at t_new (see the file comment).
@@ -160,15 +174,18 @@ struct CharacteristicBoundary {
       const Vec force_global = state.settings.body_force - state.settings.damping * state.boundary.velocity[b];
       const Vec force = frame.transpose() * force_global;
       // A particle on further symmetry planes (a corner): each plane's stretch from its own
-      // characteristic relation (see corner_stretch).
-      if (SymmetryPlanes<Dim>::any(state, b))
+      // characteristic relation (see corner_stretch). Where the virtual stencil spans
+      // fewer than Dim directions (a corner at alpha 0.6) its divergence term would read a
+      // missing direction as zero: the one-sided estimate stays.
+      if (SymmetryPlanes<Dim>::any(state, b) && state.boundary.full_rank_gradient[b])
         for (int e = 0; e < 2; ++e) {
-          const Vec& m = state.boundary.extra_normal[b][static_cast<std::size_t>(e)];
-          if (m.squaredNorm() == 0.0) continue;
+          const Vec& plane_normal = state.boundary.extra_normal[b][static_cast<std::size_t>(e)];
+          if (plane_normal.squaredNorm() == 0.0) continue;
+          const Vec m = outward_plane_normal(state, i, plane_normal);
+          const double plane_speed = SymmetryPlanes<Dim>::normal_speed(state, b, e, t_new) * m.dot(plane_normal);
           const Vec m_frame = frame.transpose() * m;
           const double stretch =
-              corner_stretch(state, b, m, SymmetryPlanes<Dim>::normal_speed(state, b, e, t_new), force_global.dot(m),
-                             dt, c_p, z_p, modulus);
+              corner_stretch(state, b, m, plane_speed, force_global.dot(m), dt, c_p, z_p, modulus);
           velocity_dt += (stretch - m_frame.dot(velocity_dt * m_frame)) * (m_frame * m_frame.transpose());
         }
 
