@@ -30,11 +30,11 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
-#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <numeric>
 #include <string>
+#include <string_view>
 
 namespace tsph::cli {
 namespace {
@@ -408,14 +408,9 @@ int run(const SpectrumOptions& o, const CaseFile& c) {
   }
   write_file_atomically(out / "fixed_point.csv", fixed_csv);
   if (o.write_map) {  // G itself, for analyses of its own (numpy.fromfile(..., '<f8').reshape(n, n))
-    std::string bytes(static_cast<std::size_t>(n * n) * sizeof(double), '\0');
-    char* at = bytes.data();
-    for (Eigen::Index r = 0; r < n; ++r)
-      for (Eigen::Index k = 0; k < n; ++k, at += sizeof(double)) {
-        const double value = map(r, k);
-        std::memcpy(at, &value, sizeof(double));
-      }
-    write_file_atomically(out / "map.f64", bytes);
+    const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> row_major = map;
+    write_file_atomically(out / "map.f64", std::string_view(reinterpret_cast<const char*>(row_major.data()),
+                                                            static_cast<std::size_t>(n * n) * sizeof(double)));
     std::string rows = "row,particle,i,j,k,region,field\n";
     for (std::size_t p = 0; p < geometry.index.size(); ++p)
       for (std::size_t slot = 0; slot < per; ++slot) {

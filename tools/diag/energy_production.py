@@ -14,6 +14,7 @@ so L is taken on G's range. With H the energy weights (rho |v|^2 / 2 + sigma : C
 prints the largest growth rate of L (1/s), the largest eigenvalue of K = (H L + L^T H) / 2
 against H (the fastest energy production any state can have) and the energy map (%) of
 K's leading vector on the lattice: where the scheme makes energy.
+tools/diag/energy_blocks.py splits K by blocks with the same functions.
 (docs/notes/2026-11-27-wall-corners.md.)
 """
 import argparse
@@ -23,66 +24,83 @@ import numpy as np
 import scipy.linalg
 
 
+def material_arguments(parser):
+    for key in ("E", "nu", "rho", "dx"):
+        parser.add_argument(f"--{key}", type=float, required=True)
+
+
+class SteppedOperator:
+    """L (full coordinates), G's range Q, the energy weights H and the rows' fields."""
+
+    def __init__(self, maps, young, nu, rho, dx):
+        lame = young * nu / ((1 + nu) * (1 - 2 * nu))
+        self.mu = young / (2 * (1 + nu))
+        c = np.sqrt((lame + 2 * self.mu) / rho)
+        self.maps = []
+        for item in maps:
+            directory, cfl = item.rsplit(":", 1)
+            self.rows = list(csv.DictReader(open(f"{directory}/map_rows.csv")))
+            n = len(self.rows)
+            g = np.fromfile(f"{directory}/map.f64", "<f8").reshape(n, n)
+            self.maps.append((g, float(cfl) * dx / c))
+        n = len(self.rows)
+        u, s, _ = np.linalg.svd(self.maps[0][0])
+        self.range = u[:, : int((s > 1e-9).sum())]
+        steps = np.array([dt for _, dt in self.maps[:3]])
+        self.coefficients = np.linalg.inv(np.vander(steps, 3, increasing=True))  # (G - I) / dt = sum_k dt^k X_k
+        slopes = [(g - np.eye(n)) / dt for g, dt in self.maps[:3]]
+        self.terms = [sum(self.coefficients[k, j] * slopes[j] for j in range(3)) for k in range(3)]
+        self.operator = self.terms[0]
+        self.fields = {}
+        for k, row in enumerate(self.rows):
+            self.fields.setdefault(int(row["particle"]), {})[row["field"]] = k
+        z = rho * c  # the map's stress unit
+        compliance = np.full((3, 3), -nu / young)
+        np.fill_diagonal(compliance, 1 / young)
+        self.weights = np.zeros((n, n))
+        for f in self.fields.values():
+            normal = [f["sxx"], f["syy"], f["szz"]]
+            self.weights[np.ix_(normal, normal)] = z * z * compliance
+            self.weights[f["sxy"], f["sxy"]] = z * z / self.mu
+            self.weights[f["vx"], f["vx"]] = self.weights[f["vy"], f["vy"]] = rho
+
+    def fit_error(self):
+        """The fourth map, if given, against the fit through the first three, on G's range
+        (a constrained coordinate's row of (G - I) / dt is -1 / dt, not polynomial)."""
+        g, dt = self.maps[3]
+        q = self.range
+        slope = q.T @ ((g - np.eye(len(self.rows))) / dt) @ q
+        fitted = q.T @ sum(self.terms[k] * dt**k for k in range(3)) @ q
+        return np.abs(slope - fitted).max() / np.abs(slope).max()
+
+    def production(self, operator):
+        """Eigenvalues and vectors (full coordinates) of (H A + A^T H) / 2 against H on G's range."""
+        q, h = self.range, self.weights
+        kappa, vectors = scipy.linalg.eigh(q.T @ (0.5 * (h @ operator + operator.T @ h)) @ q, q.T @ h @ q)
+        return kappa, q @ vectors
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("maps", nargs="+", help="DIR:CFL of tsph spectrum --write-map runs (three or more)")
-    parser.add_argument("--E", type=float, required=True)
-    parser.add_argument("--nu", type=float, required=True)
-    parser.add_argument("--rho", type=float, required=True)
-    parser.add_argument("--dx", type=float, required=True)
+    material_arguments(parser)
     a = parser.parse_args()
-    lame = a.E * a.nu / ((1 + a.nu) * (1 - 2 * a.nu))
-    mu = a.E / (2 * (1 + a.nu))
-    c = np.sqrt((lame + 2 * mu) / a.rho)
-    z = a.rho * c  # the map's stress unit
-    maps = []
-    for item in a.maps:
-        directory, cfl = item.rsplit(":", 1)
-        rows = list(csv.DictReader(open(f"{directory}/map_rows.csv")))
-        n = len(rows)
-        g = np.fromfile(f"{directory}/map.f64", "<f8").reshape(n, n)
-        maps.append((rows, g, float(cfl) * a.dx / c))
-    rows, g0, _ = maps[0]
-    u, s, _ = np.linalg.svd(g0)
-    q = u[:, : int((s > 1e-9).sum())]
-    r = q.shape[1]
-    print(f"{len(rows)} unknowns, G's range {r}")
-    reduced = [((q.T @ g @ q - np.eye(r)) / dt, dt) for _, g, dt in maps]
-    fit = reduced[:3]
-    steps = np.array([dt for _, dt in fit])
-    weights = np.linalg.inv(np.vander(steps, 3, increasing=True))[0]
-    operator = sum(w * m for w, (m, _) in zip(weights, fit))
-    if len(reduced) > 3:  # the fourth map against the cubic through the first three and L
-        m3, dt3 = reduced[3]
-        coefficients = np.linalg.inv(np.vander(steps, 3, increasing=True))
-        fitted = sum(sum(coefficients[k, j] * fit[j][0] for j in range(3)) * dt3**k for k in range(3))
-        print(f"fourth map against the fit: {np.abs(m3 - fitted).max() / np.abs(m3).max():.2e} (relative)")
-    compliance = np.full((3, 3), -a.nu / a.E)
-    np.fill_diagonal(compliance, 1 / a.E)
-    fields = {}
-    for k, row in enumerate(rows):
-        fields.setdefault(int(row["particle"]), {})[row["field"]] = k
-    h_full = np.zeros((len(rows), len(rows)))
-    for f in fields.values():
-        normal = [f["sxx"], f["syy"], f["szz"]]
-        for i in range(3):
-            for j in range(3):
-                h_full[normal[i], normal[j]] = z * z * compliance[i, j]
-        h_full[f["sxy"], f["sxy"]] = z * z / mu
-        h_full[f["vx"], f["vx"]] = h_full[f["vy"], f["vy"]] = a.rho
-    h = q.T @ h_full @ q
-    growth = np.linalg.eigvals(operator).real.max()
-    production = 0.5 * (h @ operator + operator.T @ h)
-    kappa, vectors = scipy.linalg.eigh(production, h)
+    op = SteppedOperator(a.maps, a.E, a.nu, a.rho, a.dx)
+    print(f"{len(op.rows)} unknowns, G's range {op.range.shape[1]}")
+    if len(op.maps) > 3:
+        print(f"fourth map against the fit: {op.fit_error():.2e} (relative)")
+    q = op.range
+    growth = np.linalg.eigvals(q.T @ op.operator @ q).real.max()
+    kappa, vectors = op.production(op.operator)
     print(f"largest growth rate of L: {growth:.4g} 1/s; largest energy production rate (K against H): {kappa[-1]:.4g} 1/s")
-    v = q @ vectors[:, -1]
-    ni = max(int(row["i"]) for row in rows) + 1
-    nj = max(int(row["j"]) for row in rows) + 1
+    v = vectors[:, -1]
+    ni = max(int(row["i"]) for row in op.rows) + 1
+    nj = max(int(row["j"]) for row in op.rows) + 1
     grid = np.zeros((nj, ni))
-    for f in fields.values():
+    for f in op.fields.values():
         k = list(f.values())
-        first = rows[k[0]]
-        grid[int(first["j"]), int(first["i"])] = 0.5 * v[k] @ h_full[np.ix_(k, k)] @ v[k]
+        first = op.rows[k[0]]
+        grid[int(first["j"]), int(first["i"])] = 0.5 * v[k] @ op.weights[np.ix_(k, k)] @ v[k]
     np.set_printoptions(precision=2, linewidth=200, suppress=True)
     print("energy of K's leading vector, % per particle (top row: largest j):")
     print(grid[::-1] / grid.sum() * 100)
