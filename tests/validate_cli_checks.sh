@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # tsph validate on bad input and --list (issue 14): an unknown case name exits 2 and
-# lists the valid names; --list exits 0; a bad --cases directory exits 2.
+# lists the valid names; --list exits 0; a bad --cases directory exits 2; --set applies
+# a key to every case file (after the case's own overrides; a case name after it stays a
+# name) and a key the case file does not have exits 2 naming it.
 #   tests/validate_cli_checks.sh build/tools/tsph OUTDIR
 set -u
 tsph=$1
@@ -24,4 +26,14 @@ check "unknown name lists the cases" 2 "homogeneous_shear_2d" -- "$tsph" validat
 check "unknown name is named" 2 "no_such_case" -- "$tsph" validate no_such_case --out "$out/v"
 check "--list" 0 "rotation_2d_alpha0.6" -- "$tsph" validate --list
 check "bad --cases" 2 "--cases" -- "$tsph" validate homogeneous_shear_2d --cases "$out/none" --out "$out/v"
+check "--set: an unknown key exits 2 and is named" 2 "unknown key method.nonsense" -- \
+  "$tsph" validate --set method.nonsense=1 homogeneous_shear_2d --quick --out "$out/s1"
+check "--set: applied to the case" 0 "5 checks passed" -- \
+  "$tsph" validate --set method.hourglass=0.01 homogeneous_shear_2d --quick --threads 1 --out "$out/s2"
+if ! grep -q '"hourglass": 0.01,' "$out/s2/homogeneous_shear_2d/run/summary.json"; then
+  echo "FAIL: --set: the run's summary.json does not resolve method.hourglass = 0.01"
+  fail=1
+else
+  echo "ok: --set: the run resolved method.hourglass = 0.01"
+fi
 exit $fail

@@ -41,7 +41,7 @@ BeamRun run_beam(const Options& o, double k, double spacing, double end_time, co
   const std::string path = o.cases_dir + "/cantilever_2d_large.toml";
   const std::string dir = o.out_dir + "/" + tag;
   std::filesystem::create_directories(dir);
-  const std::vector<std::string> overrides = {
+  const std::vector<std::string> overrides = with_user_overrides(o, {
       "geometry.spacing=" + std::to_string(spacing),
       "boundary.1.value=[0.0," + std::to_string(k * kUnitLoad) + "]",
       "time.end=" + std::to_string(end_time),
@@ -49,7 +49,7 @@ BeamRun run_beam(const Options& o, double k, double spacing, double end_time, co
       "damping.rest_kinetic_energy=0",
       "output.every=1000",
       "output.fields=[\"displacement\"]",
-  };
+  });
   CaseFile c = load_case(path, overrides);
   RunOptions r;
   r.out_dir = dir;

@@ -51,7 +51,7 @@ ColumnRun run_column(const Options& o, double alpha, double dx, double end_time,
   std::string times = "[";
   for (int k = 1; k <= frames; ++k) times += fmt::format("{}{:.17g}", k > 1 ? ", " : "", end_time * k / frames);
   times += "]";
-  const std::vector<std::string> overrides = {
+  const std::vector<std::string> overrides = with_user_overrides(o, {
       fmt::format("geometry.spacing={:.17g}", dx),
       fmt::format("method.alpha={:.17g}", alpha),
       fmt::format("time.end={:.17g}", end_time),
@@ -59,7 +59,7 @@ ColumnRun run_column(const Options& o, double alpha, double dx, double end_time,
       "output.fields=[\"velocity\", \"displacement\"]",
       "output.times=" + times,
       "output.probe_every=10",
-  };
+  });
   const CaseFile c = load_case((fs::path(o.cases_dir) / "twisting_column.toml").string(), overrides);
   const fs::path out = fs::path(o.out_dir) / name;
   fs::remove_all(out);

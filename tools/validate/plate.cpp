@@ -89,7 +89,7 @@ PlateRun run_plate(const Options& o, double v_f, double alpha, double dx, double
   std::vector<double> times;
   const int frames = static_cast<int>(std::lround(periods * frames_per_period));
   for (int k = 1; k <= frames; ++k) times.push_back(run.end_time * k / frames);
-  const std::vector<std::string> overrides = {
+  const std::vector<std::string> overrides = with_user_overrides(o, {
       fmt::format("geometry.spacing={:.17g}", dx),
       fmt::format("method.alpha={:.17g}", alpha),
       fmt::format("time.end={:.17g}", run.end_time),
@@ -98,7 +98,7 @@ PlateRun run_plate(const Options& o, double v_f, double alpha, double dx, double
       "output.fields=[\"velocity\", \"displacement\"]",
       "output.times=" + toml_array(times),
       "output.probe_every=2",
-  };
+  });
   const std::string case_path = (fs::path(o.cases_dir) / "plate_2d.toml").string();
   const CaseFile c = load_case(case_path, overrides);
   const fs::path out = fs::path(o.out_dir) / name;

@@ -18,7 +18,16 @@ struct Options {
   bool quick = false;     ///< the fast version (the default ctest suite): coarser and/or shorter
   bool quiet = true;      ///< no progress lines from the runs
   int threads = 0;        ///< 0: the runtime's default
+  /// tsph validate --set: KEY=VALUE applied to every case file after the case's own
+  /// overrides (so a key the case sets, e.g. method.alpha, takes the user's value).
+  std::vector<std::string> overrides;
 };
+
+/// The case's own overrides followed by the user's (Options::overrides).
+inline std::vector<std::string> with_user_overrides(const Options& options, std::vector<std::string> own) {
+  own.insert(own.end(), options.overrides.begin(), options.overrides.end());
+  return own;
+}
 
 /// One measured figure against its reference.
 struct Check {
