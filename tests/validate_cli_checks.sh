@@ -28,6 +28,8 @@ check "--list" 0 "rotation_2d_alpha0.6" -- "$tsph" validate --list
 check "bad --cases" 2 "--cases" -- "$tsph" validate homogeneous_shear_2d --cases "$out/none" --out "$out/v"
 check "--set: an unknown key exits 2 and is named" 2 "unknown key method.nonsense" -- \
   "$tsph" validate --set method.nonsense=1 homogeneous_shear_2d --quick --out "$out/s1"
+check "--set without '=' exits 2" 2 "write --set key=value" -- \
+  "$tsph" validate --set homogeneous_shear_2d --quick --out "$out/s0"
 check "--set: applied to the case" 0 "5 checks passed" -- \
   "$tsph" validate --set method.hourglass=0.01 homogeneous_shear_2d --quick --threads 1 --out "$out/s2"
 if ! grep -q '"hourglass": 0.01,' "$out/s2/homogeneous_shear_2d/run/summary.json"; then

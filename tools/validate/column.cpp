@@ -72,6 +72,7 @@ ColumnRun run_column(const Options& o, double alpha, double dx, double end_time,
   RunOptions options;
   options.out_dir = out.string();
   options.quiet = o.quiet;
+  options.overrides = overrides;  // summary.json lists them
   options.on_step = [&](const RunOptions::StepRecord& r) { run.energies.push_back(r); };
   options.on_frame = [&](const output::VtuFrame& f, double t) {
     const LatticeFrame<3> lattice(f, lower, upper, dx);

@@ -110,6 +110,7 @@ PlateRun run_plate(const Options& o, double v_f, double alpha, double dx, double
   RunOptions options;
   options.out_dir = out.string();
   options.quiet = o.quiet;
+  options.overrides = overrides;  // summary.json lists them
   options.on_step = [&](const RunOptions::StepRecord& r) { run.energies.push_back(r); };
   options.on_frame = [&](const output::VtuFrame& f, double t) {
     const LatticeFrame<2> lattice(f, lower, upper, dx);
