@@ -160,7 +160,7 @@ int run_validate(const ValidateOptions& o) {
   }
   if (o.names.empty())
     for (const auto& c : all) selected.push_back(&c);
-  for (const auto& s : o.overrides)
+  for (const auto& s : o.overrides)  // the case files' rule (apply_override), checked before any run
     if (s.find('=') == std::string::npos || s.front() == '=') {
       fmt::print(stderr, "tsph: error: validate: --set '{}' is invalid: write --set key=value, e.g. --set "
                          "method.conservative_momentum=true\n", s);

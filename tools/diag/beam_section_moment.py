@@ -21,27 +21,26 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import tsph_vtu  # noqa: E402
 
+DX, LOAD = 0.025, 8e7 * (0.1**3 / 12) / 1.0**2  # P = k E I / L^2 with k = 1 (the case file's load)
+SIMPSON = np.array([1, 4, 2, 4, 1]) * DX / 3  # five particles across the thickness
+
 for run in sys.argv[1:]:
-    fr = tsph_vtu.read_pvd(f'{run}/particles.pvd'); t, p = fr[-1]
-    kc = run
-    g = tsph_vtu.read_vtu(p); X = g.point_data['initial_position'][:, :2]; x = g.points[:, :2]; s = g.point_data['stress']
-    tip = np.argmin(np.hypot(X[:,0]-1, X[:,1]))
+    _, last = tsph_vtu.read_pvd(f"{run}/particles.pvd")[-1]
+    g = tsph_vtu.read_vtu(last)
+    X, x, s = g.point_data["initial_position"][:, :2], g.points[:, :2], g.point_data["stress"]
+    tip = np.argmin(np.hypot(X[:, 0] - 1, X[:, 1]))
     out = []
     for col in (2, 10, 20, 30):
-        sel = np.where(np.abs(X[:,0] - col*0.025) < 1e-9)[0]
-        sel = sel[np.argsort(X[sel,1])]
-        # section direction: along the column's current chord
-        a, b = x[sel[0]], x[sel[-1]]; e = (b - a)/np.linalg.norm(b - a); nrm = np.array([e[1], -e[0]])  # axis tangent ~ nrm
-        c = x[sel].mean(axis=0)
-        # traction on the section with normal nrm: sigma . nrm ; moment about c: sum (r x t) * dA (trapezoid weights)
-        w = np.array([1,4,2,4,1])*0.025/3
-        M = 0.0
-        for k, i in enumerate(sel):
-            S = np.array([[s[i,0], s[i,3]], [s[i,3], s[i,1]]])
-            tr = S @ nrm; r = x[i] - c
-            M += (r[0]*tr[1] - r[1]*tr[0]) * w[k]
-        # the tip load's moment: P = k E I / L^2 with k = 1 (the case file's load)
-        Ptot = 8e7 * (0.1**3/12) / 1.0**2
-        Mext = Ptot * (x[tip,0] - c[0])
-        out.append(f"col {col}: M {M:9.2f} ext {Mext:9.2f} ratio {M/Mext:.4f}")
-    print(kc, 'tip', x[tip], '|', '; '.join(out))
+        column = np.where(np.abs(X[:, 0] - col * DX) < 1e-9)[0]
+        column = column[np.argsort(X[column, 1])]
+        chord = (x[column[-1]] - x[column[0]]) / np.linalg.norm(x[column[-1]] - x[column[0]])
+        normal = np.array([chord[1], -chord[0]])  # the section's normal, along the deformed axis
+        centre = x[column].mean(axis=0)
+        moment = 0.0  # sum over the section of (r x sigma . normal) dA
+        for weight, i in zip(SIMPSON, column):
+            traction = np.array([[s[i, 0], s[i, 3]], [s[i, 3], s[i, 1]]]) @ normal
+            r = x[i] - centre
+            moment += (r[0] * traction[1] - r[1] * traction[0]) * weight
+        applied = LOAD * (x[tip, 0] - centre[0])
+        out.append(f"col {col}: M {moment:9.2f} ext {applied:9.2f} ratio {moment / applied:.4f}")
+    print(run, "tip", x[tip], "|", "; ".join(out))

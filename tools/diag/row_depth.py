@@ -11,56 +11,63 @@ at the particles of the middle column, and for the top rows the depth the row's 
 to against the stencil centroid's depth (what surface_extrapolation moves by).
 """
 import numpy as np
-def w3(q):  # cubic spline shape, support 2
-    return np.where(q < 1, 1 - 1.5*q**2 + 0.75*q**3, np.where(q < 2, 0.25*(2-q)**3, 0.0))
-def dw3(q):
-    return np.where(q < 1, -3*q + 2.25*q**2, np.where(q < 2, -0.75*(2-q)**2, 0.0))
-dx = 0.025; nx = 41; ny = 5
-R = np.array([(i*dx, -0.05 + j*dx) for j in range(ny) for i in range(nx)])
-Vr = np.full(len(R), dx*dx)  # volumes (edges would be halves; irrelevant mid-beam)
-Vc = np.array([((i+0.5)*dx, -0.05 + (j+0.5)*dx) for j in range(ny-1) for i in range(nx-1)])
-Vv = np.full(len(Vc), dx*dx)
-def weights(x, pts, vol, h):
-    d = pts - x; r = np.linalg.norm(d, axis=1); q = r/h; sel = q < 2
-    d, r, q, vol = d[sel], r[sel], q[sel], vol[sel]
-    W = vol*w3(q)
-    # linear interpolation weights
-    P = np.hstack([np.ones((len(d),1)), d/h])
-    Mm = (P*W[:,None]).T @ P
-    try:
-        c = np.linalg.solve(Mm, np.eye(3)[0]); wi = W*(P@c)
+
+DX, NX, NY = 0.025, 41, 5
+REAL = np.array([(i * DX, -0.05 + j * DX) for j in range(NY) for i in range(NX)])
+VIRTUAL = np.array([((i + 0.5) * DX, -0.05 + (j + 0.5) * DX) for j in range(NY - 1) for i in range(NX - 1)])
+VOLUME = DX * DX  # every particle's (the faces' halves do not matter in the middle column)
+
+
+def shape(q):  # cubic spline, support 2
+    return np.where(q < 1, 1 - 1.5 * q**2 + 0.75 * q**3, np.where(q < 2, 0.25 * (2 - q) ** 3, 0.0))
+
+
+def slope(q):
+    return np.where(q < 1, -3 * q + 2.25 * q**2, np.where(q < 2, -0.75 * (2 - q) ** 2, 0.0))
+
+
+def row(x, sources, h):
+    """The row of x over `sources`: its neighbours, interpolation weights and gradient weights
+    relative to the interpolated value."""
+    d = sources - x
+    r = np.linalg.norm(d, axis=1)
+    near = r / h < 2
+    d, r = d[near], r[near]
+    w = VOLUME * shape(r / h)
+    p = np.hstack([np.ones((len(d), 1)), d / h])
+    try:  # linear interpolation, Shepard where its moments are singular
+        value = w * (p @ np.linalg.solve((p * w[:, None]).T @ p, np.eye(3)[0]))
     except np.linalg.LinAlgError:
-        wi = W/W.sum()
-    with np.errstate(invalid='ignore', divide='ignore'):
-        g = (vol*dw3(q)/np.where(r>0, r, 1))[:,None]*d  # grad wrt x_J (direction d)
-    M = g.T @ d
-    G = np.linalg.solve(M, g.T).T   # rows: corrected gradient weights
-    D = G - wi[:,None]*G.sum(axis=0)  # relative to the interpolated value
-    return np.where(sel)[0], wi, D
-for alpha in (0.6, 1.2):
-    h = alpha*dx
-    f = lambda p: p[:,0]*p[:,1]   # v_x = x y: d/dx = y
-    fr = f(R)
-    # virtual values by the half step's interpolation
-    fv = np.zeros(len(Vc))
-    for k, x in enumerate(Vc):
-        idx, wi, _ = weights(x, R, Vr, h); fv[k] = wi @ fr[idx]
-    out = []
-    for j in range(ny):
-        I = j*nx + 20
-        idx, wi, D = weights(R[I], Vc, Vv, h)
-        est = D[:,0] @ fv[idx]
-        out.append(f"y={R[I,1]:+.4f}: d_x(xy) {est:+.5f} (exact {R[I,1]:+.5f})")
-    # the moment-weighted effective: fit est = c * y
-    print(f"alpha {alpha}:"); print('  ' + '\n  '.join(out))
-print('D only (exact virtual values), and the centroid depth:')
-for alpha in (0.6, 1.2):
-    h = alpha*dx
-    for j in (4, 3):
-        I = j*nx + 20
-        idx, wi, D = weights(R[I], Vc, Vv, h)
-        fvx = Vc[idx,0]*Vc[idx,1]
-        est = D[:,0] @ fvx
-        d = Vc[idx] - R[I]; r = np.linalg.norm(d, axis=1)
-        cen = d[r < 2*h].mean(axis=0)
-        print(f"  alpha {alpha} y={R[I,1]:+.4f}: D-only {est:+.5f}; shift {R[I,1]-est:+.5f}; centroid depth {cen[1]:+.5f}")
+        value = w / w.sum()
+    g = (VOLUME * slope(r / h) / np.where(r > 0, r, 1))[:, None] * d
+    gradient = np.linalg.solve(g.T @ d, g.T).T  # corrected: exact for linear fields
+    return np.where(near)[0], value, gradient - value[:, None] * gradient.sum(axis=0)
+
+
+def main():
+    field = REAL[:, 0] * REAL[:, 1]  # v = x y: d/dx = y
+    for alpha in (0.6, 1.2):
+        h = alpha * DX
+        at_virtual = np.zeros(len(VIRTUAL))
+        for k, x in enumerate(VIRTUAL):  # the half step's interpolation
+            near, value, _ = row(x, REAL, h)
+            at_virtual[k] = value @ field[near]
+        print(f"alpha {alpha}:")
+        for j in range(NY):
+            i = j * NX + NX // 2
+            near, _, gradient = row(REAL[i], VIRTUAL, h)
+            print(f"  y={REAL[i, 1]:+.4f}: d_x(xy) {gradient[:, 0] @ at_virtual[near]:+.5f} (exact {REAL[i, 1]:+.5f})")
+    print("the full step alone (exact virtual values), and the stencil centroid's depth:")
+    for alpha in (0.6, 1.2):
+        h = alpha * DX
+        for j in (NY - 1, NY - 2):
+            i = j * NX + NX // 2
+            near, _, gradient = row(REAL[i], VIRTUAL, h)
+            estimate = gradient[:, 0] @ (VIRTUAL[near, 0] * VIRTUAL[near, 1])
+            centroid = (VIRTUAL[near] - REAL[i]).mean(axis=0)
+            print(f"  alpha {alpha} y={REAL[i, 1]:+.4f}: D-only {estimate:+.5f}; shift {REAL[i, 1] - estimate:+.5f}; "
+                  f"centroid depth {centroid[1]:+.5f}")
+
+
+if __name__ == "__main__":
+    main()

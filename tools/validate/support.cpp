@@ -25,7 +25,8 @@ namespace fs = std::filesystem;
 CaseRun run_case_file(const Options& options, const std::string& file, const std::vector<std::string>& overrides,
                       const std::string& run_name, bool record_steps) {
   CaseRun run;
-  run.file = load_case((fs::path(options.cases_dir) / file).string(), with_user_overrides(options, overrides));
+  const std::vector<std::string> all_overrides = with_user_overrides(options, overrides);
+  run.file = load_case((fs::path(options.cases_dir) / file).string(), all_overrides);
   set_thread_count(options.threads > 0 ? options.threads : run.file.threads);
   const fs::path dir = fs::path(options.out_dir) / run_name;
   std::error_code ec;
@@ -36,7 +37,7 @@ CaseRun run_case_file(const Options& options, const std::string& file, const std
   o.out_dir = dir.string();
   o.quiet = options.quiet;
   o.version = TSPH_VERSION;
-  o.overrides = with_user_overrides(options, overrides);
+  o.overrides = all_overrides;
   o.on_frame = [&run](const output::VtuFrame& frame, double t) {
     run.frame_times.push_back(t);
     run.frames.push_back(frame);
