@@ -85,7 +85,7 @@ expect 2 "material.plane = 'membrane' is invalid: must be one of: stress, strain
 expect 2 "time.cfl = 1.5 is invalid: must lie in \(0, 1\]" "${beam[@]}" --set time.cfl=1.5
 expect 2 "method.free_edge_uniaxial = true is invalid: applies to dimension = 3 only" "${beam[@]}" \
   --set method.free_edge_uniaxial=true
-expect 2 "method.velocity_wall = 'wall-gradient' is invalid: must be one of: characteristics, wall_gradient" "${beam[@]}" \
+expect 2 "method.velocity_wall = 'wall-gradient' is invalid: must be one of: automatic, characteristics, wall_gradient" "${beam[@]}" \
   --set method.velocity_wall=wall-gradient
 # A forced unstable CFL: exit status 3 and the diagnosis within a few steps; the last
 # good state (the initial frame) is written and summary.json says so.

@@ -72,25 +72,33 @@ TEST(CantileverExact, TipDeflectionMatchesTheReference) {
   EXPECT_NEAR(force, exact.load, 1e-3 * exact.load);
 }
 
-// The shipped cases hold the converged options: the wall clamp, the hourglass stiffness
-// 0.05 and the surface extrapolation, in 3D also the free edges' uniaxial stress
-// (refused in 2D); the builder hands them to the solver.
+// The converged options are the method's defaults: the shipped cantilevers leave them
+// to it (the wall clamp, the hourglass stiffness 0.05, the surface extrapolation and the
+// surface filter 0.02 resolved by the builder and the solver alike), and the 3D one sets
+// the free edges' uniaxial stress (refused in 2D).
 TEST(Cantilever, DefaultsAreTheConvergedOptions) {
   const CaseFile plane = load_case(testing_cases::shipped_case("cantilever_2d.toml"), {"geometry.spacing=0.05"});
-  EXPECT_EQ(plane.velocity_wall, CaseFile::VelocityWall::wall_gradient);
-  EXPECT_EQ(plane.hourglass_stiffness, 0.05);
-  EXPECT_TRUE(plane.surface_extrapolation);
+  EXPECT_EQ(plane.velocity_wall, CaseFile::VelocityWall::automatic);
+  EXPECT_EQ(plane.hourglass_stiffness, kAutomaticOption);
+  EXPECT_EQ(plane.surface_extrapolation, Toggle::automatic);
   EXPECT_FALSE(plane.free_edge_uniaxial);
   const CaseFile solid = load_case(testing_cases::shipped_case("cantilever_3d.toml"), {"geometry.spacing=0.05"});
-  EXPECT_EQ(solid.velocity_wall, CaseFile::VelocityWall::wall_gradient);
-  EXPECT_EQ(solid.hourglass_stiffness, 0.05);
-  EXPECT_TRUE(solid.surface_extrapolation);
+  EXPECT_EQ(solid.hourglass_stiffness, kAutomaticOption);
   EXPECT_TRUE(solid.free_edge_uniaxial);
   BuiltCase<2> model = build_case<2>(plane);
-  EXPECT_EQ(model.settings.velocity_wall, SolverSettings<2>::VelocityWall::wall_gradient);
-  EXPECT_EQ(model.settings.hourglass_stiffness, 0.05);
-  EXPECT_TRUE(model.settings.surface_extrapolation);
-  EXPECT_TRUE(build_case<3>(solid).settings.free_edge_uniaxial);
+  const SolverSettings<2> built = model.settings;
+  BuiltCase<2> copy = build_case<2>(plane);
+  for (const SolverSettings<2>& s : {built, make_solver<2>(plane, copy).settings()}) {
+    EXPECT_EQ(s.velocity_wall, SolverSettings<2>::VelocityWall::wall_gradient);
+    EXPECT_EQ(s.hourglass_stiffness, 0.05);
+    EXPECT_EQ(s.hourglass_coefficient, 0.02);
+    EXPECT_EQ(s.surface_extrapolation, Toggle::on);
+  }
+  const BuiltCase<3> solid_model = build_case<3>(solid);
+  EXPECT_TRUE(solid_model.settings.free_edge_uniaxial);
+  EXPECT_EQ(solid_model.settings.velocity_wall, SolverSettings<3>::VelocityWall::wall_gradient);
+  EXPECT_EQ(solid_model.settings.hourglass_stiffness, 0.05);
+  EXPECT_EQ(solid_model.settings.surface_extrapolation, Toggle::on);
   // In 2D there are no edges: refused by the case and by the solver.
   try {
     load_case(testing_cases::shipped_case("cantilever_2d.toml"), {"method.free_edge_uniaxial=true"});

@@ -109,11 +109,11 @@ TEST_F(CaseFileTest, ShippedCasesResolveToTheSeedSettings) {
   EXPECT_EQ(c.boundary_particles[2].second, 11u);  // the clamp: the whole face x = 0
   EXPECT_EQ(c.boundary_particles[1].second, 11u);  // the tip face, corners included
   EXPECT_EQ(c.boundary_particles[0].second, 198u); // top and bottom, less the four corners
-  // The 3D case holds the converged 3D options (docs/validation.md).
+  // The 3D case leaves the converged options to the defaults and sets the free edges.
   const CaseFile solid = load_case((kCases / "cantilever_3d.toml").string());
-  EXPECT_EQ(solid.velocity_wall, CaseFile::VelocityWall::wall_gradient);
-  EXPECT_EQ(solid.hourglass_stiffness, 0.05);
-  EXPECT_TRUE(solid.surface_extrapolation);
+  EXPECT_EQ(solid.velocity_wall, CaseFile::VelocityWall::automatic);
+  EXPECT_EQ(solid.hourglass_stiffness, kAutomaticOption);
+  EXPECT_EQ(solid.surface_extrapolation, Toggle::automatic);
   EXPECT_TRUE(solid.free_edge_uniaxial);
 }
 
@@ -207,7 +207,7 @@ TEST_F(CaseFileTest, WrongTypeOutOfRangeAndMissingKeys) {
   e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nkinematics = 3"));
   EXPECT_NE(e.find("method.kinematics = 3 is invalid: must be one of (in quotes): small_strain"), std::string::npos) << e;
   e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nvelocity_wall = \"wall\""));
-  EXPECT_NE(e.find("method.velocity_wall = 'wall' is invalid: must be one of: characteristics, wall_gradient"),
+  EXPECT_NE(e.find("method.velocity_wall = 'wall' is invalid: must be one of: automatic, characteristics, wall_gradient"),
             std::string::npos) << e;
   e = error_of(replaced(kValid2d, "alpha = 0.6", "alpha = 0.6\nfree_edge_uniaxial = true"));
   EXPECT_NE(e.find("method.free_edge_uniaxial = true is invalid: applies to dimension = 3 only"), std::string::npos) << e;
@@ -422,7 +422,11 @@ TEST_P(CantileverCaseFile, EqualsTheBeamBuiltByHand) {
   if (wall_gradient) {
     settings.hourglass_stiffness = 0.05;
     settings.velocity_wall = SolverSettings<2>::VelocityWall::wall_gradient;
-    settings.surface_extrapolation = true;
+    settings.surface_extrapolation = Toggle::on;
+  } else {
+    settings.hourglass_stiffness = 0.0;
+    settings.velocity_wall = SolverSettings<2>::VelocityWall::characteristics;
+    settings.surface_extrapolation = Toggle::off;
   }
   TaylorSph<2> reference(std::move(real), std::move(virtual_particles), material, settings, conditions);
   for (int k = 0; k < 233; ++k) reference.step(dt);
@@ -442,9 +446,9 @@ TEST_P(CantileverCaseFile, EqualsTheBeamBuiltByHand) {
     overrides.emplace_back("method.surface_extrapolation=false");
   }
   const CaseFile c = load_case((kCases / "cantilever_2d.toml").string(), overrides);
-  EXPECT_EQ(c.velocity_wall == CaseFile::VelocityWall::wall_gradient, wall_gradient);
-  EXPECT_EQ(c.hourglass_stiffness, wall_gradient ? 0.05 : 0.0);
-  EXPECT_EQ(c.surface_extrapolation, wall_gradient);
+  EXPECT_EQ(c.velocity_wall, wall_gradient ? CaseFile::VelocityWall::automatic : CaseFile::VelocityWall::characteristics);
+  EXPECT_EQ(c.hourglass_stiffness, wall_gradient ? kAutomaticOption : 0.0);
+  EXPECT_EQ(c.surface_extrapolation, wall_gradient ? Toggle::automatic : Toggle::off);
   RunOptions options;
   options.out_dir = directory_.string();
   options.quiet = true;

@@ -58,7 +58,7 @@ TEST(Conservation, FreeBlockKeepsItsEnergy) {
   const double length = 20 * kDx;
   for (std::size_t i = 0; i < real.size(); ++i)
     real.velocity[0][i] = 0.01 * std::cos(M_PI * real.position[0][i] / length);
-  SolverSettings<2> settings;
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
   settings.smoothing_length = 0.6 * kDx;
   const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
   TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
@@ -93,7 +93,7 @@ TEST(Conservation, FreeBlockMomentumDriftIsBounded) {
     real.velocity[0][i] = 0.01 * (std::cos(M_PI * x) + 0.5 * std::cos(2 * M_PI * y) * std::cos(M_PI * x));
     real.velocity[1][i] = 0.01 * (std::cos(M_PI * y) * std::cos(3 * M_PI * x) + 0.3 * std::cos(2 * M_PI * x));
   }
-  SolverSettings<2> settings;
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
   settings.smoothing_length = 0.6 * kDx;
   const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
   TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
@@ -125,7 +125,7 @@ TEST(Conservation, ConservativeMomentumOptionConservesMomentumExactly) {
     real.velocity[0][i] = 0.01 * (std::cos(M_PI * x) + 0.5 * std::cos(2 * M_PI * y) * std::cos(M_PI * x));
     real.velocity[1][i] = 0.01 * (std::cos(M_PI * y) * std::cos(3 * M_PI * x) + 0.3 * std::cos(2 * M_PI * x));
   }
-  SolverSettings<2> settings;
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
   settings.smoothing_length = 0.6 * kDx;
   settings.conservative_momentum = true;
   const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
@@ -164,7 +164,7 @@ TEST(Conservation, ConservativeMomentumIsConsistentInTheBulk) {
     real.stress[2][i] = 1e6 * (2 * x - 4 * y);
   }
   const Vector<2> divergence(1e6 * (3 - 4), 1e6 * (2 + 5));
-  SolverSettings<2> settings;
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
   settings.smoothing_length = 0.6 * kDx;
   settings.conservative_momentum = true;
   const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
@@ -200,7 +200,7 @@ TEST(VelocityField, IsImposedAtEveryParticle) {
     const double c = std::cos(omega * t), s = std::sin(omega * t);
     return Vector<2>(omega * (-s * x0[0] - c * x0[1]), omega * (c * x0[0] - s * x0[1]));
   };
-  SolverSettings<2> settings;
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
   settings.smoothing_length = 1.2 * kDx;
   const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
   TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
@@ -263,7 +263,7 @@ double quarter_turn_stress_change(double cfl, bool driven = false) {
     real.velocity[0][i] = v[0];
     real.velocity[1][i] = v[1];
   }
-  SolverSettings<2> settings;
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
   settings.smoothing_length = 1.2 * kDx;
   settings.kinematics = Kinematics::updated_lagrangian;
   TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
@@ -353,7 +353,7 @@ TEST(HourglassStiffness, NoForceOnLinearDisplacement) {
     real.displacement[0][i] = u[0];
     real.displacement[1][i] = u[1];
   }
-  SolverSettings<2> settings;
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
   settings.smoothing_length = 0.6 * kDx;
   settings.hourglass_stiffness = 0.1;
   const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
@@ -382,7 +382,7 @@ void check_hourglass_restores(Kinematics kinematics) {
     real.displacement[0][i] = 1e-5 * ((ix + iy) % 2 == 0 ? 1.0 : -1.0);
     real.displacement[1][i] = 1e-5 * (ix % 2 == 0 ? 1.0 : -1.0);
   }
-  SolverSettings<2> settings;
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
   settings.smoothing_length = 0.6 * kDx;
   settings.hourglass_stiffness = 0.1;
   settings.kinematics = kinematics;

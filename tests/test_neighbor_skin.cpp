@@ -79,7 +79,7 @@ struct MovingBlock {
   }
 
   TaylorSph<Dim> solver(double skin, bool conservative = false) const {
-    SolverSettings<Dim> settings;
+    SolverSettings<Dim> settings = SolverSettings<Dim>::bare_scheme();
     settings.smoothing_length = 1.2 * kSpacing;
     settings.kinematics = Kinematics::updated_lagrangian;
     settings.neighbor_skin = skin;

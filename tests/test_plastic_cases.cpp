@@ -54,6 +54,11 @@ rho = 2000.0
 plane = "strain"
 [method]
 alpha = 0.6
+# the bare scheme (SolverSettings::bare_scheme): the characteristic walls are exact here
+hourglass = 0.0
+hourglass_stiffness = 0.0
+velocity_wall = "characteristics"
+surface_extrapolation = false
 [time]
 end = 3.75e-3
 cfl = 1.0
@@ -152,6 +157,11 @@ nu = 0.3
 rho = 2000.0
 [method]
 alpha = 0.6
+# the bare scheme (SolverSettings::bare_scheme): the characteristic walls are exact here
+hourglass = 0.0
+hourglass_stiffness = 0.0
+velocity_wall = "characteristics"
+surface_extrapolation = false
 [time]
 end = 3.75e-3
 cfl = 1.0

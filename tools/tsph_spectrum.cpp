@@ -202,8 +202,11 @@ int run(const SpectrumOptions& o, const CaseFile& c) {
              "hourglass stiffness {}, velocity_wall {}: {} unknowns\n",
              c.path, Dim, geometry.count[0], geometry.count[1], Dim == 3 ? fmt::format(" x {}", geometry.count[2]) : "",
              Dim == 2 ? (c.plane_mode == PlaneMode::plane_strain ? " (plane strain)" : " (plane stress)") : "",
-             c.alpha, dt * built.wave_speed / dx, solver.settings().damping, c.hourglass, c.hourglass_stiffness,
-             c.velocity_wall == CaseFile::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics", n);
+             c.alpha, dt * built.wave_speed / dx, solver.settings().damping, solver.settings().hourglass_coefficient,
+             solver.settings().hourglass_stiffness,
+             solver.settings().velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient ? "wall_gradient"
+                                                                                               : "characteristics",
+             n);
 
   auto clock = std::chrono::steady_clock::now();
   auto lap = [&] {

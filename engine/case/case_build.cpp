@@ -376,7 +376,9 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.energy_ledger = c.energy_every > 0;
   b.settings.velocity_wall = c.velocity_wall == CaseFile::VelocityWall::wall_gradient
                                  ? SolverSettings<Dim>::VelocityWall::wall_gradient
-                                 : SolverSettings<Dim>::VelocityWall::characteristics;
+                             : c.velocity_wall == CaseFile::VelocityWall::characteristics
+                                 ? SolverSettings<Dim>::VelocityWall::characteristics
+                                 : SolverSettings<Dim>::VelocityWall::automatic;
   b.settings.surface_extrapolation = c.surface_extrapolation;
   b.settings.material_velocity_motion = c.material_velocity_motion;
   b.settings.conservative_momentum = c.conservative_momentum;
@@ -393,6 +395,9 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.neighbor_skin = c.neighbor_skin;
   b.settings.keep_virtual_fields = c.output_virtual;  // its frames write them (snapshot)
   b.material.emplace(case_model<Dim>(c));
+  // The automatic method options resolved here already (the solver does the same), so
+  // that the summary reports what the run uses.
+  b.settings = resolve_automatic_options(b.settings, b.material->plastic());
   b.wave_speed = case_wave_speed(c);
   b.dt = case_time_step(c);
   if (!c.force && b.dt > dx / b.wave_speed * (1.0 + 1e-12))

@@ -299,16 +299,19 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
                                .value_or("small_strain") == "updated_lagrangian"
                        ? Kinematics::updated_lagrangian
                        : Kinematics::small_strain;
+    // Absent: the automatic defaults (resolve_automatic_options in solver/settings.hpp).
     c.hourglass = m.real("hourglass", false, "0.02", [](double e) { return e >= 0.0 && e < 1.0; },
-                         "must lie in [0, 1)").value_or(0.0);
+                         "must lie in [0, 1)").value_or(kAutomaticOption);
     c.hourglass_stiffness =
         m.real("hourglass_stiffness", false, "0.05", [](double k) { return k >= 0.0 && k <= 1.0; },
-               "must lie in [0, 1]").value_or(0.0);
-    c.velocity_wall = m.text("velocity_wall", false, {"characteristics", "wall_gradient"})
-                                  .value_or("characteristics") == "wall_gradient"
-                          ? CaseFile::VelocityWall::wall_gradient
-                          : CaseFile::VelocityWall::characteristics;
-    c.surface_extrapolation = m.boolean("surface_extrapolation").value_or(false);
+               "must lie in [0, 1]").value_or(kAutomaticOption);
+    const std::string wall =
+        m.text("velocity_wall", false, {"automatic", "characteristics", "wall_gradient"}).value_or("automatic");
+    c.velocity_wall = wall == "wall_gradient"     ? CaseFile::VelocityWall::wall_gradient
+                      : wall == "characteristics" ? CaseFile::VelocityWall::characteristics
+                                                  : CaseFile::VelocityWall::automatic;
+    const std::optional<bool> extrapolation = m.boolean("surface_extrapolation");
+    c.surface_extrapolation = !extrapolation ? Toggle::automatic : *extrapolation ? Toggle::on : Toggle::off;
     c.material_velocity_motion = m.boolean("material_velocity_motion").value_or(true);
     c.conservative_momentum = m.boolean("conservative_momentum").value_or(false);
     c.deficient_stencils =

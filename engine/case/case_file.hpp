@@ -121,12 +121,14 @@ struct CaseFile {
   double alpha = 0.0;
   InterpolationKind interpolation = InterpolationKind::linear;
   Kinematics kinematics = Kinematics::small_strain;
-  double hourglass = 0.0;
-  double hourglass_stiffness = 0.0;  ///< SolverSettings::hourglass_stiffness
+  /// The four below: absent from the case, the automatic default of
+  /// resolve_automatic_options (solver/settings.hpp; kAutomaticOption, automatic).
+  double hourglass = kAutomaticOption;             ///< SolverSettings::hourglass_coefficient
+  double hourglass_stiffness = kAutomaticOption;  ///< SolverSettings::hourglass_stiffness
   /// method.velocity_wall: SolverSettings::velocity_wall (the same names and order).
-  enum class VelocityWall { characteristics, wall_gradient };
-  VelocityWall velocity_wall = VelocityWall::characteristics;
-  bool surface_extrapolation = false;  ///< SolverSettings::surface_extrapolation
+  enum class VelocityWall { automatic, characteristics, wall_gradient };
+  VelocityWall velocity_wall = VelocityWall::automatic;
+  Toggle surface_extrapolation = Toggle::automatic;  ///< SolverSettings::surface_extrapolation
   bool material_velocity_motion = true;  ///< SolverSettings::material_velocity_motion
   bool conservative_momentum = false;    ///< SolverSettings::conservative_momentum
   std::string deficient_stencils = "keep";  ///< SolverSettings::deficient_stencils: keep, widen, widen_motion

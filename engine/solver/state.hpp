@@ -234,6 +234,7 @@ struct SolverState {
         material(std::move(model)),
         settings(std::move(run_settings)),
         boundaries(std::move(conditions)) {
+    settings = resolve_automatic_options(settings, material.plastic());
     check_settings();
     real.check_field_sizes("solver: the real set");
     virtual_.check_field_sizes("solver: the virtual set");
@@ -335,7 +336,7 @@ struct SolverState {
     if (!mirror.active()) return;
     if (mirror.planes.size() > 8) throw std::invalid_argument("solver: at most 8 mirror planes");
     const char* option = settings.conservative_momentum      ? "method.conservative_momentum"
-                         : settings.surface_extrapolation    ? "method.surface_extrapolation"
+                         : settings.surface_extrapolation == Toggle::on ? "method.surface_extrapolation"
                          : settings.free_edge_uniaxial       ? "method.free_edge_uniaxial"
                          : settings.hourglass_coefficient > 0 ? "method.hourglass"
                          : settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient
@@ -344,9 +345,15 @@ struct SolverState {
                              ? "method.deficient_stencils = \"widen\" or \"widen_motion\""
                              : nullptr;
     if (option)
-      throw std::invalid_argument(std::string("solver: ") + option +
-                                  " is not available with mirror planes yet (it reads per-boundary-particle state "
-                                  "that the ghosts do not carry): turn it off, or model the whole body");
+      throw std::invalid_argument(
+          std::string("solver: ") + option +
+          " is not available with mirror planes yet (it reads per-boundary-particle state that the ghosts do not "
+          "carry): turn it off, or model the whole body" +
+          (takes_elastic_treatments<Dim>(material.plastic())
+               ? std::string(" (an elastic material in 2D and 3D takes the surface treatments by default: set "
+                             "method.hourglass = 0, method.velocity_wall = \"characteristics\" and "
+                             "method.surface_extrapolation = false)")
+               : std::string()));
     if (find_driven_condition() >= 0)
       throw std::invalid_argument("solver: mirror planes in a driven body (one velocity condition on every "
                                   "particle): the motion is prescribed everywhere already; drop the planes");

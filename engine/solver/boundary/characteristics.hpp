@@ -169,7 +169,7 @@ struct CharacteristicBoundary {
         velocity_dt.col(k) = frame.transpose() * (state.boundary.half_velocity_gradient[b] * t);
         stress_dt[k] = frame.transpose() * directional<Dim>(state.boundary.half_stress_gradient[b], t) * frame;
       }
-      if (state.settings.surface_extrapolation) SurfaceExtrapolation<Dim>::apply(state, b, i, frame, t_new, velocity_dt);
+      if (state.settings.surface_extrapolation == Toggle::on) SurfaceExtrapolation<Dim>::apply(state, b, i, frame, t_new, velocity_dt);
       // Effective body force, with the damping, at time n.
       const Vec force_global = state.settings.body_force - state.settings.damping * state.boundary.velocity[b];
       const Vec force = frame.transpose() * force_global;
