@@ -122,16 +122,44 @@ class HourglassStiffness {
       for (std::size_t g = 0; g < images.source.size(); ++g)
         values[owned + g] = mirror.reflect_direction(images.planes[g], values[images.source[g]]);
     };
-    // A: virtual values a_v = sum_J A_vJ u_J.
+    // A: virtual values a_v = sum_J A_vJ u_J. A's fit and weights A_vJ depend on the
+    // initial coordinates, the list and which of its pairs lie within the support now:
+    // kept along the list (forward_weight_, forward_in_support_) and computed again for a
+    // row only when the list was built again or a pair of the row crossed the support's
+    // edge (the same numbers as computing them each step; 2026-11-27: the fits were 29 %
+    // of a 2D updated-Lagrangian step with the elastic defaults).
+    const NeighborList& forward_list = state.lists.virtual_from_real;
+    const bool forward_kept = forward_build_ == state.counters.neighbor_builds &&
+                              forward_weight_.size() == forward_list.pair_count();
+    if (!forward_kept) {
+      forward_weight_.assign(forward_list.pair_count(), 0.0);
+      forward_in_support_.assign(forward_list.pair_count(), 0);
+      forward_build_ = state.counters.neighbor_builds;
+    }
     parallel_for(virtual_count, [&](std::size_t v) {
-      const auto nb = state.lists.virtual_from_real.neighbors(v);
+      const auto nb = forward_list.neighbors(v);
       const auto vi = static_cast<std::uint32_t>(v);
-      const auto in_support = [&](std::uint32_t j) { return state.within_support(virtual_points, v, real_points, j); };
-      forward_fit_[v] = fit(nb, [&](std::uint32_t j) { return offset(j, vi); }, h, in_support);
+      double* weight = forward_weight_.data() + forward_list.row_begin(v);
+      char* kept_support = forward_in_support_.data() + forward_list.row_begin(v);
+      bool same = forward_kept;
+      for (std::size_t k = 0; k < nb.size(); ++k) {
+        const char now = state.within_support(virtual_points, v, real_points, nb[k]) ? 1 : 0;
+        same = same && now == kept_support[k];
+        kept_support[k] = now;
+      }
+      if (!same) {
+        std::size_t k = 0;  // fit asks keep() once per entry of the row, in order
+        const auto in_support = [&](std::uint32_t) { return kept_support[k++] != 0; };
+        forward_fit_[v] = fit(nb, [&](std::uint32_t j) { return offset(j, vi); }, h, in_support);
+        for (std::size_t m = 0; m < nb.size(); ++m)
+          weight[m] = forward_fit_[v].weight_sum > 0.0 && kept_support[m]
+                          ? coefficient(forward_fit_[v], offset(nb[m], vi), h)
+                          : 0.0;
+      }
       Vec value = Vec::Zero();
       if (forward_fit_[v].weight_sum > 0.0)
-        for (std::uint32_t j : nb)
-          if (in_support(j)) value += coefficient(forward_fit_[v], offset(j, vi), h) * displacement(j);
+        for (std::size_t m = 0; m < nb.size(); ++m)
+          if (kept_support[m]) value += weight[m] * displacement(nb[m]);
       virtual_value_[v] = value;
     });
     if (mirror.active()) {
@@ -260,6 +288,9 @@ class HourglassStiffness {
 
   std::vector<Vec> kick_;                      ///< the last step's velocity changes (ledger only)
   std::vector<LinearFitWeights> forward_fit_;  ///< A, per virtual particle
+  std::vector<double> forward_weight_;         ///< A_vJ along state.lists.virtual_from_real (0 beyond the support)
+  std::vector<char> forward_in_support_;       ///< whether each pair of that list lay within the support
+  std::int64_t forward_build_ = -1;            ///< SolverCounters::neighbor_builds of the two above
   std::vector<LinearFitWeights> return_fit_;   ///< R, per real particle (per list build)
   std::vector<double> return_weight_;             ///< R_Iv along hourglass_from_virtual_ (per list build)
   std::vector<double> transposed_return_weight_;  ///< R_Iv along hourglass_to_real_ (per list build)
