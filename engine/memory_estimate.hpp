@@ -11,8 +11,13 @@
 //     SolverSettings::keep_virtual_fields (`keep_virtual_fields` here: + Dim doubles
 //     and 3 int32); the initial positions X_v (Dim doubles) are kept, read by the
 //     updated-Lagrangian virtual motion (TaylorSph::place_at_material_point,
-//     the default) and the hourglass stiffness (which also builds lists of its own: not
-//     modelled);
+//     the default) and the hourglass stiffness;
+//   * with the hourglass stiffness (`hourglass_stiffness` here; the default of an
+//     elastic material in 2D and 3D): its return trip's two lists in the initial
+//     coordinates, radius max(2h, 1.75 dx), each with 4 B row starts and 4 B indices
+//     plus 8 B weights per pair (the pairs counted exactly: the cell centres of the
+//     lattice within that radius of a node), 9 B per half-step pair (A's kept weights
+//     and support flags), and per particle two fits (Dim + 2 doubles) and two vectors;
 //   * no v^n (the displacement takes dt/2 v^n before the full step; the conservative
 //     momentum option stores it, Dim doubles: not modelled), except with the energy
 //     ledger (SolverSettings::energy_ledger, `energy_ledger` here: + Dim doubles; with
@@ -35,6 +40,8 @@
 
 #include "engine/particle_set.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -49,9 +56,28 @@
 
 namespace tsph {
 
+/// The cell centres of the unit lattice within `radius` (in spacings) of a node.
+template <int Dim>
+double cell_centres_within(double radius) {
+  const int reach = static_cast<int>(std::ceil(radius)) + 1;
+  double count = 0.0;
+  std::array<int, Dim> k{};
+  k.fill(-reach);
+  while (true) {
+    double r2 = 0.0;
+    for (int d = 0; d < Dim; ++d) r2 += (k[d] + 0.5) * (k[d] + 0.5);
+    if (r2 < radius * radius) count += 1.0;
+    int d = 0;
+    while (d < Dim && ++k[d] > reach) k[d++] = -reach;
+    if (d == Dim) break;
+  }
+  return count;
+}
+
 template <int Dim>
 double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false, double skin = 0.0,
-                                        bool keep_virtual_fields = false, bool energy_ledger = false) {
+                                        bool keep_virtual_fields = false, bool energy_ledger = false,
+                                        bool hourglass_stiffness = false) {
   if (!(alpha > 0.0) || !std::isfinite(alpha))
     throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
                                 " must be positive");
@@ -68,9 +94,13 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
   const double list = 4.0 + 4.0 * pairs;
   const double boundary_offsets = 4.0;
   const double cell_list = 8.0 + 8.0 * Dim;
-  if (skin > 0.0) return sets + 2.0 * list + boundary_offsets;
+  const double return_pairs = cell_centres_within<Dim>(std::max(2.0 * alpha, 1.75));
+  const double stiffness = hourglass_stiffness ? 2.0 * (4.0 + 12.0 * return_pairs) + 9.0 * pairs +
+                                                     2.0 * 8.0 * (Dim + 2) + 2.0 * 8.0 * Dim
+                                               : 0.0;
+  if (skin > 0.0) return sets + 2.0 * list + boundary_offsets + stiffness;
   const double lists = transposed_lists ? 2.0 * list : list + cell_list;
-  return sets + lists + boundary_offsets;
+  return sets + lists + boundary_offsets + stiffness;
 }
 
 /// Memory this process may use: MemAvailable of /proc/meminfo (0 if unknown).

@@ -8,6 +8,8 @@
 #include "engine/validation/cantilever.hpp"
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
+#include "engine/case/restart_check.hpp"
+#include "engine/case/case_build.hpp"
 #include "engine/lattice.hpp"
 #include "engine/output/checkpoint.hpp"
 #include "engine/output/progress.hpp"
@@ -585,3 +587,72 @@ TEST_F(CaseFileTest, CheckpointRoundTripIsExactAndDamageIsRefused) {
 }
 
 }  // namespace
+
+// The automatic method options (resolve_automatic_options): an elastic material in 2D or
+// 3D takes the surface filter 0.02, the wall-gradient clamp, the hourglass stiffness 0.05
+// and the surface extrapolation; 1D and plastic materials none; a value the caller set is
+// kept. The case layer (resolved_method_options: memory estimate, restart record) and the
+// builder agree with the solver.
+TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
+  using S2 = SolverSettings<2>;
+  const S2 elastic = resolve_automatic_options(S2{}, false);
+  EXPECT_EQ(elastic.hourglass_coefficient, 0.02);
+  EXPECT_EQ(elastic.hourglass_stiffness, 0.05);
+  EXPECT_EQ(elastic.velocity_wall, S2::VelocityWall::wall_gradient);
+  EXPECT_EQ(elastic.surface_extrapolation, Toggle::on);
+  const SolverSettings<3> solid = resolve_automatic_options(SolverSettings<3>{}, false);
+  EXPECT_EQ(solid.hourglass_stiffness, 0.05);
+  EXPECT_EQ(solid.velocity_wall, SolverSettings<3>::VelocityWall::wall_gradient);
+  for (const S2& off : {resolve_automatic_options(S2{}, true), S2::bare_scheme()}) {
+    EXPECT_EQ(off.hourglass_coefficient, 0.0);
+    EXPECT_EQ(off.hourglass_stiffness, 0.0);
+    EXPECT_EQ(off.velocity_wall, S2::VelocityWall::characteristics);
+    EXPECT_EQ(off.surface_extrapolation, Toggle::off);
+  }
+  const SolverSettings<1> bar = resolve_automatic_options(SolverSettings<1>{}, false);
+  EXPECT_EQ(bar.hourglass_coefficient, 0.0);
+  EXPECT_EQ(bar.hourglass_stiffness, 0.0);
+  EXPECT_EQ(bar.velocity_wall, SolverSettings<1>::VelocityWall::characteristics);
+  EXPECT_EQ(bar.surface_extrapolation, Toggle::off);
+  S2 set;
+  set.hourglass_stiffness = 0.01;
+  set.velocity_wall = S2::VelocityWall::characteristics;
+  const S2 kept = resolve_automatic_options(set, false);
+  EXPECT_EQ(kept.hourglass_stiffness, 0.01);
+  EXPECT_EQ(kept.velocity_wall, S2::VelocityWall::characteristics);
+  EXPECT_EQ(kept.surface_extrapolation, Toggle::on);  // the others still automatic
+  EXPECT_EQ(resolve_automatic_options(elastic, true).hourglass_stiffness, 0.05);  // resolved values stay
+
+  // The case layer: an elastic 2D case, the 1D bar, a plastic 2D case, an explicit value.
+  auto expect_options = [](const CaseFile& c, double filter, double stiffness, bool wall, bool extrapolation) {
+    const ResolvedMethodOptions r = resolved_method_options(c);
+    EXPECT_EQ(r.hourglass, filter) << c.path;
+    EXPECT_EQ(r.hourglass_stiffness, stiffness) << c.path;
+    EXPECT_EQ(r.wall_gradient, wall) << c.path;
+    EXPECT_EQ(r.surface_extrapolation, extrapolation) << c.path;
+  };
+  const CaseFile beam = load_case((kCases / "cantilever_2d.toml").string(), {"geometry.spacing=0.05"});
+  expect_options(beam, 0.02, 0.05, true, true);
+  BuiltCase<2> built = build_case<2>(beam);
+  EXPECT_EQ(built.settings.hourglass_stiffness, kAutomaticOption);  // handed to the solver as set
+  const S2 solver_settings = make_solver<2>(beam, built).settings();
+  EXPECT_EQ(solver_settings.hourglass_coefficient, 0.02);
+  EXPECT_EQ(solver_settings.hourglass_stiffness, 0.05);
+  expect_options(load_case((kCases / "bar.toml").string()), 0.0, 0.0, false, false);
+  const CaseFile footing = load_case((kCases / "footing_2d.toml").string(), {"geometry.spacing=0.5"});
+  expect_options(footing, 0.0, 0.0, false, false);
+  expect_options(load_case((kCases / "cantilever_2d.toml").string(), {"method.hourglass_stiffness=0.01"}), 0.02, 0.01,
+                 true, true);
+
+  // The restart record holds the resolved values in its former formats, so a checkpoint
+  // written when the case set them (or before they were automatic) still matches.
+  const std::string record = physics_record(beam);
+  for (const char* line : {"method.hourglass = 0.02\n", "method.hourglass_stiffness = 0.05\n",
+                           "method.velocity_wall = \"wall_gradient\"\n", "method.surface_extrapolation = true\n"})
+    EXPECT_NE(record.find(line), std::string::npos) << line << "\n" << record;
+  const std::string explicit_record = physics_record(load_case(
+      (kCases / "cantilever_2d.toml").string(),
+      {"geometry.spacing=0.05", "method.hourglass=0.02", "method.hourglass_stiffness=0.05",
+       "method.velocity_wall=\"wall_gradient\"", "method.surface_extrapolation=true"}));
+  EXPECT_EQ(explicit_record, record);
+}

@@ -264,6 +264,24 @@ TEST(MirrorPlanes, WhatTheGhostsCannotModelRefused) {
   expect_refused(rod_text(true), {"initial.stress=[0, 0, 0, 1e4, 0, 0]"}, "a shear traction on it");
   // Options whose per-boundary-particle state the ghosts do not carry.
   expect_refused(rod_text(true), {"method.deficient_stencils=\"widen\""}, "not available with mirror planes");
+  // An elastic rod takes the surface treatments by default: refused with the keys to set,
+  // and runs with them set; an option the caller set gets no such hint.
+  std::string elastic = rod_text(true);
+  replace_all(elastic, "model = \"j2\"\nyield_stress = 1e5\nisotropic_hardening = 1e6\n", "");
+  replace_all(elastic, ", \"plastic\"]", "]");
+  replace_all(elastic, "times = [1.0e-3]", "times = [1.0e-4]");
+  ASSERT_EQ(elastic.find("j2"), std::string::npos);
+  expect_refused(elastic, {}, "takes the surface treatments by default: set method.hourglass = 0");
+  EXPECT_NO_THROW(run_text(elastic, "elastic_quarter",
+                           {"method.hourglass=0", "method.velocity_wall=\"characteristics\"",
+                            "method.surface_extrapolation=false", "time.end=1e-4"}));
+  try {
+    run_text(elastic, "refused",
+             {"method.hourglass=0.02", "method.velocity_wall=\"characteristics\"", "method.surface_extrapolation=false"});
+    ADD_FAILURE() << "accepted";
+  } catch (const std::exception& e) {
+    EXPECT_EQ(std::string(e.what()).find("by default"), std::string::npos) << e.what();
+  }
 }
 
 TEST(MirrorPlanes, PlaneThatIsNotAHalfSpaceRefused) {

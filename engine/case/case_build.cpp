@@ -395,9 +395,6 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.neighbor_skin = c.neighbor_skin;
   b.settings.keep_virtual_fields = c.output_virtual;  // its frames write them (snapshot)
   b.material.emplace(case_model<Dim>(c));
-  // The automatic method options resolved here already (the solver does the same), so
-  // that the summary reports what the run uses.
-  b.settings = resolve_automatic_options(b.settings, b.material->plastic());
   b.wave_speed = case_wave_speed(c);
   b.dt = case_time_step(c);
   if (!c.force && b.dt > dx / b.wave_speed * (1.0 + 1e-12))

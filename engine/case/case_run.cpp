@@ -359,6 +359,8 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
                    const BuiltCase<Dim>& b, const std::string& status, const std::string& message) {
   std::string overrides;
   for (const auto& s : o.overrides) overrides += (overrides.empty() ? "" : ", ") + json_string(s);
+  // The method options as the solver resolves them (the builder hands them over as set).
+  const SolverSettings<Dim> resolved = resolve_automatic_options(b.settings, b.material->plastic());
   std::string errors;
   for (const auto& e : r.errors)
     errors += fmt::format("{}\n    {{\"time\": {}, \"name\": {}, \"value\": {}}}", errors.empty() ? "" : ",",
@@ -384,10 +386,10 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       json_number(c.young_modulus), json_number(c.poisson_ratio), json_number(c.density),
       json_string(Dim == 2 ? (c.plane_mode == PlaneMode::plane_strain ? "strain" : "stress") : "none"),
       json_number(b.wave_speed), json_number(b.dt), json_number(b.dt * b.wave_speed / c.spacing),
-      json_number(c.end_time), json_number(c.damping), json_number(b.settings.hourglass_coefficient),
-      json_number(b.settings.hourglass_stiffness),
-      json_string(b.settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics"),
-      b.settings.surface_extrapolation == Toggle::on ? "true" : "false", c.free_edge_uniaxial ? "true" : "false",
+      json_number(c.end_time), json_number(c.damping), json_number(resolved.hourglass_coefficient),
+      json_number(resolved.hourglass_stiffness),
+      json_string(resolved.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics"),
+      resolved.surface_extrapolation == Toggle::on ? "true" : "false", c.free_edge_uniaxial ? "true" : "false",
       json_number(c.neighbor_skin),
       thread_count(),
       json_number(r.time), r.steps, r.neighbor_builds, json_number(r.wall_seconds), json_number(r.particle_steps_per_second),

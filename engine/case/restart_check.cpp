@@ -121,22 +121,14 @@ std::string physics_record(const CaseFile& c) {
   r.add("method.alpha", c.alpha);
   r.add_text("method.interpolation", std::string(to_string(c.interpolation)));
   r.add_text("method.kinematics", std::string(to_string(c.kinematics)));
-  // The automatic method options as "automatic" (their resolved values follow from the
-  // dimension, the material and the boundaries, which are compared too).
-  auto option = [&](const char* key, double value) {
-    if (value == kAutomaticOption)
-      r.add_text(key, "automatic");
-    else
-      r.add(key, value);
-  };
-  option("method.hourglass", c.hourglass);
-  option("method.hourglass_stiffness", c.hourglass_stiffness);
-  r.add_text("method.velocity_wall", c.velocity_wall == CaseFile::VelocityWall::wall_gradient     ? "wall_gradient"
-                                     : c.velocity_wall == CaseFile::VelocityWall::characteristics ? "characteristics"
-                                                                                                  : "automatic");
-  r.add_text("method.surface_extrapolation", c.surface_extrapolation == Toggle::on    ? "true"
-                                             : c.surface_extrapolation == Toggle::off ? "false"
-                                                                                      : "automatic");
+  // The automatic method options as the run resolves them, in the record's former
+  // formats: a checkpoint written before they were automatic matches when the physics
+  // is the same (resolved_method_options, the solver's rule).
+  const ResolvedMethodOptions options = resolved_method_options(c);
+  r.add("method.hourglass", options.hourglass);
+  r.add("method.hourglass_stiffness", options.hourglass_stiffness);
+  r.add_text("method.velocity_wall", options.wall_gradient ? "wall_gradient" : "characteristics");
+  r.add("method.surface_extrapolation", options.surface_extrapolation);
   r.add("method.material_velocity_motion", c.material_velocity_motion);
   r.add("method.conservative_momentum", c.conservative_momentum);
   r.add("method.deficient_stencils", c.deficient_stencils);

@@ -145,9 +145,10 @@ struct SolverSettings {
 
 /// Whether the automatic method options of a run resolve to the elastic treatments:
 /// an elastic material in 2D or 3D (resolve_automatic_options).
+constexpr bool takes_elastic_treatments(int dimension, bool plastic) { return dimension >= 2 && !plastic; }
 template <int Dim>
 constexpr bool takes_elastic_treatments(bool plastic) {
-  return Dim >= 2 && !plastic;
+  return takes_elastic_treatments(Dim, plastic);
 }
 
 /// The settings of a run with every automatic option (kAutomaticOption,

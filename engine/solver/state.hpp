@@ -13,6 +13,7 @@
 #include "neighbor/neighbor_list.hpp"
 
 #include <algorithm>
+#include <string_view>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -234,6 +235,12 @@ struct SolverState {
         material(std::move(model)),
         settings(std::move(run_settings)),
         boundaries(std::move(conditions)) {
+    // Which surface treatments the run takes by default (the mirror planes' message).
+    automatic_surface_treatments_ =
+        takes_elastic_treatments<Dim>(material.plastic()) &&
+        (settings.hourglass_coefficient == kAutomaticOption ||
+         settings.velocity_wall == SolverSettings<Dim>::VelocityWall::automatic ||
+         settings.surface_extrapolation == Toggle::automatic);
     settings = resolve_automatic_options(settings, material.plastic());
     check_settings();
     real.check_field_sizes("solver: the real set");
@@ -349,10 +356,13 @@ struct SolverState {
           std::string("solver: ") + option +
           " is not available with mirror planes yet (it reads per-boundary-particle state that the ghosts do not "
           "carry): turn it off, or model the whole body" +
-          (takes_elastic_treatments<Dim>(material.plastic())
+          (automatic_surface_treatments_ && std::string_view(option).rfind("method.deficient", 0) != 0 &&
+                   std::string_view(option) != "method.conservative_momentum" &&
+                   std::string_view(option) != "method.free_edge_uniaxial"
                ? std::string(" (an elastic material in 2D and 3D takes the surface treatments by default: set "
                              "method.hourglass = 0, method.velocity_wall = \"characteristics\" and "
-                             "method.surface_extrapolation = false)")
+                             "method.surface_extrapolation = false; the whole body's default also has "
+                             "method.hourglass_stiffness = 0.05, which mirror planes keep)")
                : std::string()));
     if (find_driven_condition() >= 0)
       throw std::invalid_argument("solver: mirror planes in a driven body (one velocity condition on every "
@@ -552,6 +562,10 @@ struct SolverState {
   }
 
  private:
+  /// Whether a surface treatment that mirror planes refuse came from the automatic
+  /// defaults (resolve_automatic_options), not from the caller: the refusal says so.
+  bool automatic_surface_treatments_ = false;
+
   void check_settings() const {
     if (!(settings.smoothing_length > 0.0) || !std::isfinite(settings.smoothing_length))
       throw std::invalid_argument("solver: smoothing length h = " + std::to_string(settings.smoothing_length) +
