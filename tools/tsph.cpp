@@ -116,6 +116,15 @@ void print_overview(const CaseFile& c, const CaseOverview& v) {
              c.young_modulus, c.poisson_ratio, c.density,
              c.dimension == 2 ? (c.plane_mode == PlaneMode::plane_strain ? ", plane strain" : ", plane stress") : "",
              v.wave_speed);
+  // The method: the automatic options as the run resolves them (docs/cases.md, Automatic defaults).
+  const ResolvedMethodOptions m = resolved_method_options(c);
+  const auto automatic = [](bool is) { return is ? " (automatic)" : ""; };
+  fmt::print("  method: {}, surface filter {}{}, hourglass stiffness {}{}, walls {}{}, surface extrapolation {}{}\n",
+             to_string(c.kinematics), m.hourglass, automatic(c.hourglass == kAutomaticOption), m.hourglass_stiffness,
+             automatic(c.hourglass_stiffness == kAutomaticOption),
+             m.wall_gradient ? "wall_gradient" : "characteristics",
+             automatic(c.velocity_wall == CaseFile::VelocityWall::automatic), m.surface_extrapolation ? "on" : "off",
+             automatic(c.surface_extrapolation == Toggle::automatic));
   fmt::print("  time: dt = {:.6g} s (CFL {:.3g}{}), end {} s: {}{} steps, {} output frames\n", v.dt,
              v.dt * v.wave_speed / v.spacing, c.adaptive_time_step ? ", adaptive: smaller as the body flattens" : "",
              c.end_time, c.adaptive_time_step ? "at least " : "", v.steps, v.frames);
