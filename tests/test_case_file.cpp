@@ -23,6 +23,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <type_traits>
 
 namespace {
 
@@ -595,25 +596,20 @@ TEST_F(CaseFileTest, CheckpointRoundTripIsExactAndDamageIsRefused) {
 // builder agree with the solver.
 TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
   using S2 = SolverSettings<2>;
+  // The four options of resolved settings s: filter, stiffness, wall gradient, extrapolation.
+  auto expect_settings = [](const auto& s, double filter, double stiffness, bool wall, bool extrapolation) {
+    using Settings = std::decay_t<decltype(s)>;
+    EXPECT_EQ(s.hourglass_coefficient, filter);
+    EXPECT_EQ(s.hourglass_stiffness, stiffness);
+    EXPECT_EQ(s.velocity_wall, wall ? Settings::VelocityWall::wall_gradient : Settings::VelocityWall::characteristics);
+    EXPECT_EQ(s.surface_extrapolation, extrapolation ? Toggle::on : Toggle::off);
+  };
   const S2 elastic = resolve_automatic_options(S2{}, false);
-  EXPECT_EQ(elastic.hourglass_coefficient, 0.02);
-  EXPECT_EQ(elastic.hourglass_stiffness, 0.05);
-  EXPECT_EQ(elastic.velocity_wall, S2::VelocityWall::wall_gradient);
-  EXPECT_EQ(elastic.surface_extrapolation, Toggle::on);
-  const SolverSettings<3> solid = resolve_automatic_options(SolverSettings<3>{}, false);
-  EXPECT_EQ(solid.hourglass_stiffness, 0.05);
-  EXPECT_EQ(solid.velocity_wall, SolverSettings<3>::VelocityWall::wall_gradient);
-  for (const S2& off : {resolve_automatic_options(S2{}, true), S2::bare_scheme()}) {
-    EXPECT_EQ(off.hourglass_coefficient, 0.0);
-    EXPECT_EQ(off.hourglass_stiffness, 0.0);
-    EXPECT_EQ(off.velocity_wall, S2::VelocityWall::characteristics);
-    EXPECT_EQ(off.surface_extrapolation, Toggle::off);
-  }
-  const SolverSettings<1> bar = resolve_automatic_options(SolverSettings<1>{}, false);
-  EXPECT_EQ(bar.hourglass_coefficient, 0.0);
-  EXPECT_EQ(bar.hourglass_stiffness, 0.0);
-  EXPECT_EQ(bar.velocity_wall, SolverSettings<1>::VelocityWall::characteristics);
-  EXPECT_EQ(bar.surface_extrapolation, Toggle::off);
+  expect_settings(elastic, 0.02, 0.05, true, true);
+  expect_settings(resolve_automatic_options(SolverSettings<3>{}, false), 0.02, 0.05, true, true);
+  expect_settings(resolve_automatic_options(S2{}, true), 0.0, 0.0, false, false);
+  expect_settings(S2::bare_scheme(), 0.0, 0.0, false, false);
+  expect_settings(resolve_automatic_options(SolverSettings<1>{}, false), 0.0, 0.0, false, false);
   S2 set;
   set.hourglass_stiffness = 0.01;
   set.velocity_wall = S2::VelocityWall::characteristics;
