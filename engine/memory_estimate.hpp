@@ -18,6 +18,8 @@
 //     plus 8 B weights per pair (the pairs counted exactly: the cell centres of the
 //     lattice within that radius of a node), 9 B per half-step pair (A's kept weights
 //     and support flags), and per particle two fits (Dim + 2 doubles) and two vectors;
+//     without a skin, both half-step lists (the stiffness reads the half step's after the
+//     full step); its lists are released before they are built again;
 //   * no v^n (the displacement takes dt/2 v^n before the full step; the conservative
 //     momentum option stores it, Dim doubles: not modelled), except with the energy
 //     ledger (SolverSettings::energy_ledger, `energy_ledger` here: + Dim doubles; with
@@ -66,7 +68,7 @@ double cell_centres_within(double radius) {
   while (true) {
     double r2 = 0.0;
     for (int d = 0; d < Dim; ++d) r2 += (k[d] + 0.5) * (k[d] + 0.5);
-    if (r2 < radius * radius) count += 1.0;
+    if (r2 <= radius * radius) count += 1.0;  // the cell list's pairs: distance <= radius
     int d = 0;
     while (d < Dim && ++k[d] > reach) k[d++] = -reach;
     if (d == Dim) break;
@@ -99,7 +101,9 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
                                                      2.0 * 8.0 * (Dim + 2) + 2.0 * 8.0 * Dim
                                                : 0.0;
   if (skin > 0.0) return sets + 2.0 * list + boundary_offsets + stiffness;
-  const double lists = transposed_lists ? 2.0 * list : list + cell_list;
+  // Without a skin the half-step list is released before the full step's is built, except
+  // with the hourglass stiffness, which reads it after the full step (both held).
+  const double lists = transposed_lists ? 2.0 * list : list + cell_list + (hourglass_stiffness ? list : 0.0);
   return sets + lists + boundary_offsets + stiffness;
 }
 

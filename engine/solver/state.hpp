@@ -562,8 +562,9 @@ struct SolverState {
   }
 
  private:
-  /// Whether a surface treatment that mirror planes refuse came from the automatic
-  /// defaults (resolve_automatic_options), not from the caller: the refusal says so.
+  /// Whether any of the surface treatments that mirror planes refuse (the filter, the
+  /// wall gradient, the extrapolation) came from the automatic defaults
+  /// (resolve_automatic_options): the refusal of one of them then names the keys to set.
   bool automatic_surface_treatments_ = false;
 
   void check_settings() const {

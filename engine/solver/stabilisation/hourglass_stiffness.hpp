@@ -129,12 +129,13 @@ class HourglassStiffness {
     // edge (the same numbers as computing them each step; 2026-11-27: the fits were 29 %
     // of a 2D updated-Lagrangian step with the elastic defaults).
     const NeighborList& forward_list = state.lists.virtual_from_real;
-    const bool forward_kept = forward_build_ == state.counters.neighbor_builds &&
+    const bool forward_kept = forward_build_ == state.counters.neighbor_builds && forward_h_ == h &&
                               forward_weight_.size() == forward_list.pair_count();
     if (!forward_kept) {
       forward_weight_.assign(forward_list.pair_count(), 0.0);
       forward_in_support_.assign(forward_list.pair_count(), 0);
       forward_build_ = state.counters.neighbor_builds;
+      forward_h_ = h;
     }
     parallel_for(virtual_count, [&](std::size_t v) {
       const auto nb = forward_list.neighbors(v);
@@ -280,6 +281,8 @@ class HourglassStiffness {
   /// real particle, corners included, sees Dim + 1 virtual particles off a line.
   void build_lists(const SolverState<Dim>& state) {
     hourglass_radius_ = list_radius(state);
+    hourglass_from_virtual_ = NeighborList{};  // released first: two generations never coexist (memory)
+    hourglass_to_real_ = NeighborList{};
     const PointsView<Dim> real_points = initial_points_of<Dim>(state.real), virtual_points = initial_points_of<Dim>(state.virtual_);
     hourglass_from_virtual_ = CellList<Dim>(virtual_points, hourglass_radius_).query(real_points);
     hourglass_to_real_ = CellList<Dim>(real_points, hourglass_radius_).query(virtual_points);
@@ -291,6 +294,7 @@ class HourglassStiffness {
   std::vector<double> forward_weight_;         ///< A_vJ along state.lists.virtual_from_real (0 beyond the support)
   std::vector<char> forward_in_support_;       ///< whether each pair of that list lay within the support
   std::int64_t forward_build_ = -1;            ///< SolverCounters::neighbor_builds of the two above
+  double forward_h_ = 0.0;                     ///< the smoothing length they were computed with
   std::vector<LinearFitWeights> return_fit_;   ///< R, per real particle (per list build)
   std::vector<double> return_weight_;             ///< R_Iv along hourglass_from_virtual_ (per list build)
   std::vector<double> transposed_return_weight_;  ///< R_Iv along hourglass_to_real_ (per list build)
