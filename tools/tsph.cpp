@@ -15,6 +15,7 @@
 // output file that cannot be written (disk full, permission; the frames and checkpoint
 // written before are kept) or a run stopped by SIGINT/SIGTERM/SIGHUP (which still
 // writes its last frame and summary.json).
+#include "engine/case/case_build.hpp"
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/case/failure_summary.hpp"  // issue 15

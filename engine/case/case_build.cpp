@@ -177,7 +177,34 @@ Vector<Dim> shape_velocity(const CaseFile& c, const Vector<Dim>& x0) {
   return v;
 }
 
+/// The case's four automatic method options (as set, or automatic) into `settings`.
+template <int Dim>
+void set_automatic_options(const CaseFile& c, SolverSettings<Dim>& settings) {
+  using Wall = typename SolverSettings<Dim>::VelocityWall;
+  settings.hourglass_coefficient = c.hourglass;
+  settings.hourglass_stiffness = c.hourglass_stiffness;
+  settings.velocity_wall = c.velocity_wall == CaseFile::VelocityWall::wall_gradient     ? Wall::wall_gradient
+                           : c.velocity_wall == CaseFile::VelocityWall::characteristics ? Wall::characteristics
+                                                                                        : Wall::automatic;
+  settings.surface_extrapolation = c.surface_extrapolation;
+}
+
+template <int Dim>
+ResolvedMethodOptions resolved_method_options_in(const CaseFile& c) {
+  SolverSettings<Dim> settings;
+  set_automatic_options(c, settings);
+  settings = resolve_automatic_options(settings, c.plasticity.model != "elastic");  // Material::plastic()
+  return {settings.hourglass_coefficient, settings.hourglass_stiffness,
+          settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient,
+          settings.surface_extrapolation == Toggle::on};
+}
+
 }  // namespace
+
+ResolvedMethodOptions resolved_method_options(const CaseFile& c) {
+  // The rule depends on the dimension only through Dim >= 2.
+  return c.dimension == 1 ? resolved_method_options_in<1>(c) : resolved_method_options_in<3>(c);
+}
 
 template <int Dim>
 BuiltCase<Dim> build_case(const CaseFile& c) {
@@ -371,15 +398,8 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.kinematics = c.kinematics;
   b.settings.body_force = to_vector<Dim>(c.body_force);
   b.settings.damping = c.damping;
-  b.settings.hourglass_coefficient = c.hourglass;
-  b.settings.hourglass_stiffness = c.hourglass_stiffness;
+  set_automatic_options(c, b.settings);
   b.settings.energy_ledger = c.energy_every > 0;
-  b.settings.velocity_wall = c.velocity_wall == CaseFile::VelocityWall::wall_gradient
-                                 ? SolverSettings<Dim>::VelocityWall::wall_gradient
-                             : c.velocity_wall == CaseFile::VelocityWall::characteristics
-                                 ? SolverSettings<Dim>::VelocityWall::characteristics
-                                 : SolverSettings<Dim>::VelocityWall::automatic;
-  b.settings.surface_extrapolation = c.surface_extrapolation;
   b.settings.material_velocity_motion = c.material_velocity_motion;
   b.settings.conservative_momentum = c.conservative_momentum;
   using Deficient = typename SolverSettings<Dim>::DeficientStencils;

@@ -41,6 +41,17 @@ struct BuiltCase {
 template <int Dim>
 BuiltCase<Dim> build_case(const CaseFile& c);
 
+/// The four automatic method options of a case as the run resolves them (the solver's
+/// rule, resolve_automatic_options): for the memory estimate, the restart record and
+/// `tsph check`, which read the case before a solver exists.
+struct ResolvedMethodOptions {
+  double hourglass = 0.0;
+  double hourglass_stiffness = 0.0;
+  bool wall_gradient = false;
+  bool surface_extrapolation = false;
+};
+ResolvedMethodOptions resolved_method_options(const CaseFile& c);
+
 /// The solver of a built case; takes the particles out of `b`. Throws CaseError for
 /// what only the solver can check (a traction inside the body, ...).
 template <int Dim>

@@ -574,17 +574,4 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
 }
 
 }  // namespace
-ResolvedMethodOptions resolved_method_options(const CaseFile& c) {
-  const bool treatments = takes_elastic_treatments(c.dimension, c.plasticity.model != "elastic");
-  ResolvedMethodOptions r;
-  r.hourglass = c.hourglass == kAutomaticOption ? (treatments ? 0.02 : 0.0) : c.hourglass;
-  r.hourglass_stiffness =
-      c.hourglass_stiffness == kAutomaticOption ? (treatments ? 0.05 : 0.0) : c.hourglass_stiffness;
-  r.wall_gradient = c.velocity_wall == CaseFile::VelocityWall::automatic ? treatments
-                                                                          : c.velocity_wall == CaseFile::VelocityWall::wall_gradient;
-  r.surface_extrapolation =
-      c.surface_extrapolation == Toggle::automatic ? treatments : c.surface_extrapolation == Toggle::on;
-  return r;
-}
-
 }  // namespace tsph

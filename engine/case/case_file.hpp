@@ -199,18 +199,6 @@ CaseFile load_case(const std::string& path, const std::vector<std::string>& over
 CaseFile load_case_text(const std::string& text, const std::string& name,
                         const std::vector<std::string>& overrides = {});
 
-/// The four automatic method options of a case as the run resolves them
-/// (resolve_automatic_options: an elastic material in 2D or 3D takes the treatments):
-/// for the memory estimate and the restart check, which read the case before a solver
-/// exists.
-struct ResolvedMethodOptions {
-  double hourglass = 0.0;
-  double hourglass_stiffness = 0.0;
-  bool wall_gradient = false;
-  bool surface_extrapolation = false;
-};
-ResolvedMethodOptions resolved_method_options(const CaseFile& c);
-
 /// The edit distance used to suggest the nearest valid key.
 std::size_t edit_distance(const std::string& a, const std::string& b);
 

@@ -1,5 +1,6 @@
 #include "engine/case/restart_check.hpp"
 
+#include "engine/case/case_build.hpp"
 #include "engine/output/checkpoint.hpp"
 
 #include <fmt/core.h>

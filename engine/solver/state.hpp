@@ -13,7 +13,6 @@
 #include "neighbor/neighbor_list.hpp"
 
 #include <algorithm>
-#include <string_view>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -342,12 +341,16 @@ struct SolverState {
     }
     if (!mirror.active()) return;
     if (mirror.planes.size() > 8) throw std::invalid_argument("solver: at most 8 mirror planes");
-    const char* option = settings.conservative_momentum      ? "method.conservative_momentum"
-                         : settings.surface_extrapolation == Toggle::on ? "method.surface_extrapolation"
-                         : settings.free_edge_uniaxial       ? "method.free_edge_uniaxial"
-                         : settings.hourglass_coefficient > 0 ? "method.hourglass"
-                         : settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient
-                             ? "method.velocity_wall = \"wall_gradient\""
+    // The surface treatments (an elastic material's automatic defaults), then the others.
+    const char* surface_treatment =
+        settings.surface_extrapolation == Toggle::on ? "method.surface_extrapolation"
+        : settings.hourglass_coefficient > 0         ? "method.hourglass"
+        : settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient
+            ? "method.velocity_wall = \"wall_gradient\""
+            : nullptr;
+    const char* option = settings.conservative_momentum ? "method.conservative_momentum"
+                         : surface_treatment            ? surface_treatment
+                         : settings.free_edge_uniaxial  ? "method.free_edge_uniaxial"
                          : settings.deficient_stencils != SolverSettings<Dim>::DeficientStencils::keep
                              ? "method.deficient_stencils = \"widen\" or \"widen_motion\""
                              : nullptr;
@@ -356,9 +359,7 @@ struct SolverState {
           std::string("solver: ") + option +
           " is not available with mirror planes yet (it reads per-boundary-particle state that the ghosts do not "
           "carry): turn it off, or model the whole body" +
-          (automatic_surface_treatments_ && std::string_view(option).rfind("method.deficient", 0) != 0 &&
-                   std::string_view(option) != "method.conservative_momentum" &&
-                   std::string_view(option) != "method.free_edge_uniaxial"
+          (option == surface_treatment && automatic_surface_treatments_
                ? std::string(" (an elastic material in 2D and 3D takes the surface treatments by default: set "
                              "method.hourglass = 0, method.velocity_wall = \"characteristics\" and "
                              "method.surface_extrapolation = false; the whole body's default also has "
