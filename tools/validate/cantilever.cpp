@@ -70,6 +70,7 @@ BeamRun run_beam(const Options& o, double k, double spacing, double end_time, co
       if (std::abs(x0[3 * i + 1]) < 1e-9) out.axis.push_back({f.points[3 * i] / kLength, f.points[3 * i + 1] / kLength});
   };
   try {
+    use_threads(o, c);
     run_case(c, r);
   } catch (const RunDiverged& e) {
     out.diverged = true;

@@ -108,6 +108,7 @@ ColumnRun run_column(const Options& o, double alpha, double dx, double end_time,
     run.frames.push_back({t, momentum, unwrapped, u[0] / dx, w[0] / velocity_scale});
   };
   try {
+    use_threads(o, c);
     const RunReport report = run_case(c, options);
     run.time_reached = report.time;
     run.steps = report.steps;

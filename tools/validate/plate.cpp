@@ -130,6 +130,7 @@ PlateRun run_plate(const Options& o, double v_f, double alpha, double dx, double
     run.hourglass.push_back({t, u[0] / dx, u[1] / dx, w[0] / velocity_scale});
   };
   try {
+    use_threads(o, c);
     const RunReport report = run_case(c, options);
     run.time_reached = report.time;
     run.steps = report.steps;

@@ -22,12 +22,16 @@ namespace tsph::validate {
 
 namespace fs = std::filesystem;
 
+void use_threads(const Options& options, const CaseFile& file) {
+  set_thread_count(options.threads > 0 ? options.threads : file.threads);
+}
+
 CaseRun run_case_file(const Options& options, const std::string& file, const std::vector<std::string>& overrides,
                       const std::string& run_name, bool record_steps) {
   CaseRun run;
   const std::vector<std::string> all_overrides = with_user_overrides(options, overrides);
   run.file = load_case((fs::path(options.cases_dir) / file).string(), all_overrides);
-  set_thread_count(options.threads > 0 ? options.threads : run.file.threads);
+  use_threads(options, run.file);
   const fs::path dir = fs::path(options.out_dir) / run_name;
   std::error_code ec;
   fs::remove_all(dir, ec);

@@ -40,6 +40,10 @@ double largest_balance_error(const CaseRun& run, double scale);
 CaseRun run_case_file(const Options& options, const std::string& file, const std::vector<std::string>& overrides,
                       const std::string& run_name, bool record_steps = false);
 
+/// Sets the OpenMP threads of the next run: options.threads (`tsph validate --threads`),
+/// or the case file's `threads` where that is 0. Every case calls it before run_case.
+void use_threads(const Options& options, const CaseFile& file);
+
 /// The array `name` of a frame; throws std::runtime_error if the case did not write it.
 const std::vector<double>& array_of(const output::VtuFrame& frame, const std::string& name);
 /// The "id" array (uint32).
