@@ -204,9 +204,10 @@ struct NeighborLists {
   /// Renumbers both sets (ParticleSet::permute: new real particle k is old
   /// real_order[k], likewise for the virtual set) and the boundary slots
   /// (BoundaryParticles::permute). The stages' scratch is either rewritten before it is
-  /// read in every step or keyed to SolverCounters::neighbor_builds (the hourglass
-  /// stiffness's lists), which the build that follows a permutation advances. The
-  /// caller builds the lists again.
+  /// read in every step or keyed to SolverCounters::neighbor_builds, which the build
+  /// that follows a permutation advances, or to SolverCounters::renumberings (the
+  /// hourglass stiffness's lists in the initial coordinates). The caller builds the
+  /// lists again.
   static void permute(SolverState<Dim>& state, const std::vector<std::uint32_t>& real_order,
                       const std::vector<std::uint32_t>& virtual_order) {
     MirrorPlanes<Dim>::detach(state);  // the build that follows makes them again
@@ -215,6 +216,7 @@ struct NeighborLists {
     std::vector<std::uint32_t> new_index(real_order.size());
     for (std::size_t k = 0; k < real_order.size(); ++k) new_index[real_order[k]] = static_cast<std::uint32_t>(k);
     state.boundary.permute(new_index);
+    ++state.counters.renumberings;
   }
 };
 

@@ -194,6 +194,8 @@ struct SolverCounters {
   /// that of the widened stencil.
   std::int64_t widened_stencils = 0;
   std::int64_t reorders = 0;  ///< sorts of the particle sets (SolverSettings::spatial_order)
+  /// Renumberings of the particle sets: the sorts and TaylorSph::permute_particles.
+  std::int64_t renumberings = 0;
   /// Checks of the displacement since the last search (SolverSettings::neighbor_skin):
   /// two per updated-Lagrangian step.
   std::int64_t skin_checks = 0;

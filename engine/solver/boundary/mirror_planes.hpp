@@ -215,38 +215,43 @@ struct MirrorPlanes {
   }
 
  private:
+  // One parallel pass: the ghosts split into one contiguous block per thread, each
+  // block copied and reflected field by field (every ghost is written by one thread:
+  // the same bits on any thread count).
   static void refresh_set(const MirrorGhosts<Dim>& mirror, ParticleSet<Dim>& set,
                           const typename MirrorGhosts<Dim>::Images& images) {
     const std::size_t owned = set.size(), ghosts = images.source.size();
     if (ghosts == 0) return;
-    set.for_each_field([&](auto& field) {
-      if (field.empty()) return;
-      for (std::size_t g = 0; g < ghosts; ++g) field[owned + g] = field[images.source[g]];
+    parallel_blocks(ghosts, [&](std::size_t, std::size_t begin, std::size_t end) {
+      set.for_each_field([&](auto& field) {
+        if (field.empty()) return;
+        for (std::size_t g = begin; g < end; ++g) field[owned + g] = field[images.source[g]];
+      });
+      auto reflect_points = [&](std::array<std::vector<double>, Dim>& field, bool point) {
+        if (field[0].empty()) return;
+        for (std::size_t g = begin; g < end; ++g) {
+          Vec x;
+          for (int d = 0; d < Dim; ++d) x[d] = field[d][owned + g];
+          x = point ? mirror.reflect_point(images.planes[g], x) : mirror.reflect_direction(images.planes[g], x);
+          for (int d = 0; d < Dim; ++d) field[d][owned + g] = x[d];
+        }
+      };
+      reflect_points(set.position, true);
+      reflect_points(set.initial_position, true);
+      reflect_points(set.velocity, false);
+      reflect_points(set.displacement, false);
+      auto reflect_stress = [&](std::array<std::vector<double>, stress_component_count<Dim>>& field) {
+        if (field[0].empty()) return;
+        for (std::size_t g = begin; g < end; ++g) {
+          StressVector<Dim> s;
+          for (int c = 0; c < stress_component_count<Dim>; ++c) s[c] = field[c][owned + g];
+          s = from_tensor<Dim>(mirror.reflect_tensor(images.planes[g], to_tensor<Dim>(s)));
+          for (int c = 0; c < stress_component_count<Dim>; ++c) field[c][owned + g] = s[c];
+        }
+      };
+      reflect_stress(set.stress);
+      reflect_stress(set.back_stress);
     });
-    auto reflect_points = [&](std::array<std::vector<double>, Dim>& field, bool point) {
-      if (field[0].empty()) return;
-      for (std::size_t g = 0; g < ghosts; ++g) {
-        Vec x;
-        for (int d = 0; d < Dim; ++d) x[d] = field[d][owned + g];
-        x = point ? mirror.reflect_point(images.planes[g], x) : mirror.reflect_direction(images.planes[g], x);
-        for (int d = 0; d < Dim; ++d) field[d][owned + g] = x[d];
-      }
-    };
-    reflect_points(set.position, true);
-    reflect_points(set.initial_position, true);
-    reflect_points(set.velocity, false);
-    reflect_points(set.displacement, false);
-    auto reflect_stress = [&](std::array<std::vector<double>, stress_component_count<Dim>>& field) {
-      if (field[0].empty()) return;
-      for (std::size_t g = 0; g < ghosts; ++g) {
-        StressVector<Dim> s;
-        for (int c = 0; c < stress_component_count<Dim>; ++c) s[c] = field[c][owned + g];
-        s = from_tensor<Dim>(mirror.reflect_tensor(images.planes[g], to_tensor<Dim>(s)));
-        for (int c = 0; c < stress_component_count<Dim>; ++c) field[c][owned + g] = s[c];
-      }
-    };
-    reflect_stress(set.stress);
-    reflect_stress(set.back_stress);
   }
 };
 

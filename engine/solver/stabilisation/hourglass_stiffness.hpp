@@ -47,7 +47,7 @@ class HourglassStiffness {
   /// velocity receive no force (their reaction is the constraint's).
   template <class Kernel>
   void apply(SolverState<Dim>& state, const Kernel& kernel, double dt) {
-    if (hourglass_list_build_ != state.counters.neighbor_builds) build_lists(state);
+    if (lists_outdated(state)) build_lists(state);
     const double h = state.settings.smoothing_length;
     const double return_h = 0.5 * hourglass_radius_;  // kernel support = the list radius
     const double stiffness = state.settings.hourglass_stiffness * state.material.elastic().p_wave_modulus() / (h * h);
@@ -131,6 +131,8 @@ class HourglassStiffness {
     const NeighborList& forward_list = state.lists.virtual_from_real;
     const bool forward_kept = forward_build_ == state.counters.neighbor_builds && forward_h_ == h &&
                               forward_weight_.size() == forward_list.pair_count();
+    ++fit_stamp_;
+    forward_version_.resize(state.virtual_.storage_size(), 0);
     if (!forward_kept) {
       forward_weight_.assign(forward_list.pair_count(), 0.0);
       forward_in_support_.assign(forward_list.pair_count(), 0);
@@ -152,6 +154,7 @@ class HourglassStiffness {
         std::size_t k = 0;  // fit asks keep() once per entry of the row, in order
         const auto in_support = [&](std::uint32_t) { return kept_support[k++] != 0; };
         forward_fit_[v] = fit(nb, [&](std::uint32_t j) { return offset(j, vi); }, h, in_support);
+        forward_version_[v] = fit_stamp_;
         for (std::size_t m = 0; m < nb.size(); ++m)
           weight[m] = forward_fit_[v].weight_sum > 0.0 && kept_support[m]
                           ? coefficient(forward_fit_[v], offset(nb[m], vi), h)
@@ -166,12 +169,14 @@ class HourglassStiffness {
     if (mirror.active()) {
       mirror_fits(forward_fit_, mirror.virtual_, virtual_count);
       mirror_vectors(virtual_value_, mirror.virtual_, virtual_count);
+      for (std::size_t g = 0; g < mirror.virtual_.source.size(); ++g)
+        forward_version_[virtual_count + g] = forward_version_[mirror.virtual_.source[g]];
     }
     // R's fits and weights R_Iv depend on the initial coordinates and the lists alone:
     // computed once per list build (both list orders), then read (the same numbers as
     // computing them each step; 2026-11-27: the hourglass stiffness was half the quarter
     // Taylor bar's time).
-    if (return_weights_build_ != hourglass_list_build_) {
+    if (return_weights_build_ != hourglass_list_generation_) {
       return_weight_.resize(hourglass_from_virtual_.pair_count());
       transposed_return_weight_.resize(hourglass_to_real_.pair_count());
       parallel_for(real_count, [&](std::size_t i) {
@@ -191,7 +196,7 @@ class HourglassStiffness {
                           ? coefficient(return_fit_[nb[k]], Vec(-offset(nb[k], static_cast<std::uint32_t>(v))), return_h)
                           : 0.0;
       });
-      return_weights_build_ = hourglass_list_build_;
+      return_weights_build_ = hourglass_list_generation_;
     }
     // R: r_I = u_I - sum_v R_Iv a_v, weighted by V_I.
     parallel_for(real_count, [&](std::size_t i) {
@@ -222,6 +227,15 @@ class HourglassStiffness {
     // F_J = -k (V_J r_J - sum_v A_vJ s_v).
     const bool ledger = state.settings.energy_ledger;
     if (ledger) kick_.resize(real_count);
+    // A_vJ along the full step's list (rows: real), kept per pair with the version of
+    // the fit it came from: computed again only where the list was built again or row v
+    // was fitted again (the same numbers as computing them each step).
+    const NeighborList& backward_list = state.lists.real_from_virtual;
+    if (backward_build_ != state.counters.neighbor_builds || backward_weight_.size() != backward_list.pair_count()) {
+      backward_weight_.assign(backward_list.pair_count(), 0.0);
+      backward_version_.assign(backward_list.pair_count(), 0);
+      backward_build_ = state.counters.neighbor_builds;
+    }
     parallel_for(real_count, [&](std::size_t j) {
       if (const std::int32_t b = state.boundary.slot[j]; b >= 0) {
         const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
@@ -232,9 +246,18 @@ class HourglassStiffness {
       }
       const auto rj = static_cast<std::uint32_t>(j);
       Vec force = round_trip_residual_[j];
-      for (std::uint32_t v : state.lists.real_from_virtual.neighbors(j))
-        if (forward_fit_[v].weight_sum > 0.0 && state.within_support(real_points, j, virtual_points, v))
-          force -= coefficient(forward_fit_[v], offset(rj, v), h) * virtual_value_[v];
+      const auto nb = backward_list.neighbors(j);
+      double* weight = backward_weight_.data() + backward_list.row_begin(j);
+      std::uint64_t* version = backward_version_.data() + backward_list.row_begin(j);
+      for (std::size_t k = 0; k < nb.size(); ++k) {
+        const std::uint32_t v = nb[k];
+        if (!(forward_fit_[v].weight_sum > 0.0 && state.within_support(real_points, j, virtual_points, v))) continue;
+        if (version[k] != forward_version_[v]) {
+          weight[k] = coefficient(forward_fit_[v], offset(rj, v), h);
+          version[k] = forward_version_[v];
+        }
+        force -= weight[k] * virtual_value_[v];
+      }
       // A symmetry plane (or a smooth wall) keeps its normal velocity: the force acts along it.
       if (const std::int32_t b = state.boundary.slot[j];
           b >= 0 && state.condition_of(j).kind == BoundaryCondition<Dim>::Kind::symmetry) {
@@ -252,13 +275,11 @@ class HourglassStiffness {
     });
   }
 
-  /// The radius of the return trip's lists: max(2h, 1.75 dx), dx from the current mean
-  /// virtual volume (the mirror planes image the particles within it too).
+  /// The radius of the return trip's lists: max(2h, 1.75 dx), dx the initial spacing
+  /// (SolverState::initial_spacing, from the initial volumes: the lists are in the initial
+  /// coordinates; the mirror planes image the particles within it too).
   static double list_radius(const SolverState<Dim>& state) {
-    double mean_volume = 0.0;
-    for (std::size_t v = 0; v < state.virtual_.size(); ++v) mean_volume += state.virtual_.mass[v] / state.virtual_.density[v];
-    mean_volume /= static_cast<double>(state.virtual_.size());
-    return std::max(state.support_radius(), 1.75 * std::pow(mean_volume, 1.0 / Dim));
+    return std::max(state.support_radius(), 1.75 * state.initial_spacing);
   }
 
   /// The velocity change of each real particle in the last step (with
@@ -276,6 +297,17 @@ class HourglassStiffness {
     double weight_sum = 0.0;
   };
 
+  /// Whether the return trip's lists must be searched again. They are in the initial
+  /// coordinates, so only a renumbering (SolverCounters::renumberings), a change of the sets'
+  /// sizes or of the radius outdates them; with mirror planes the ghosts are generated
+  /// anew at every search of the solver's lists, and so are these lists.
+  bool lists_outdated(const SolverState<Dim>& state) const {
+    return hourglass_list_generation_ == 0 || list_renumberings_ != state.counters.renumberings ||
+           list_real_size_ != state.real.storage_size() || list_virtual_size_ != state.virtual_.storage_size() ||
+           hourglass_radius_ != list_radius(state) ||
+           (state.mirror.active() && list_neighbor_build_ != state.counters.neighbor_builds);
+  }
+
   /// The real -> virtual lists of the hourglass stiffness's return trip (and the
   /// transpose), in the initial coordinates: radius max(2h, 1.75 dx) (dx from the mean virtual volume), so that every
   /// real particle, corners included, sees Dim + 1 virtual particles off a line.
@@ -286,7 +318,11 @@ class HourglassStiffness {
     const PointsView<Dim> real_points = initial_points_of<Dim>(state.real), virtual_points = initial_points_of<Dim>(state.virtual_);
     hourglass_from_virtual_ = CellList<Dim>(virtual_points, hourglass_radius_).query(real_points);
     hourglass_to_real_ = CellList<Dim>(real_points, hourglass_radius_).query(virtual_points);
-    hourglass_list_build_ = state.counters.neighbor_builds;
+    ++hourglass_list_generation_;
+    list_neighbor_build_ = state.counters.neighbor_builds;
+    list_renumberings_ = state.counters.renumberings;
+    list_real_size_ = state.real.storage_size();
+    list_virtual_size_ = state.virtual_.storage_size();
   }
 
   std::vector<Vec> kick_;                      ///< the last step's velocity changes (ledger only)
@@ -295,16 +331,24 @@ class HourglassStiffness {
   std::vector<char> forward_in_support_;       ///< whether each pair of that list lay within the support
   std::int64_t forward_build_ = -1;            ///< SolverCounters::neighbor_builds of the two above
   double forward_h_ = 0.0;                     ///< the smoothing length they were computed with
+  std::vector<std::uint64_t> forward_version_;  ///< fit_stamp_ of each virtual particle's last fit (ghosts: their owner's)
+  std::uint64_t fit_stamp_ = 0;                 ///< counts the calls of apply (versions start at 1)
+  std::vector<double> backward_weight_;         ///< A_vJ along state.lists.real_from_virtual
+  std::vector<std::uint64_t> backward_version_; ///< forward_version_ of the fit each weight came from (0: none)
+  std::int64_t backward_build_ = -1;            ///< SolverCounters::neighbor_builds of the two above
   std::vector<LinearFitWeights> return_fit_;   ///< R, per real particle (per list build)
   std::vector<double> return_weight_;             ///< R_Iv along hourglass_from_virtual_ (per list build)
   std::vector<double> transposed_return_weight_;  ///< R_Iv along hourglass_to_real_ (per list build)
-  std::int64_t return_weights_build_ = -1;        ///< hourglass_list_build_ of return_fit_ and the weights
+  std::int64_t return_weights_build_ = -1;        ///< hourglass_list_generation_ of return_fit_ and the weights
   std::vector<Vec> virtual_value_;             ///< a_v, then s_v
   std::vector<Vec> round_trip_residual_;       ///< V_I r_I
   NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)
   NeighborList hourglass_to_real_;       ///< its transpose
   double hourglass_radius_ = 0.0;
-  std::int64_t hourglass_list_build_ = -1;  ///< SolverCounters::neighbor_builds when built
+  std::int64_t hourglass_list_generation_ = 0;  ///< searches of the two lists above (0: none yet)
+  std::int64_t list_neighbor_build_ = -1;       ///< SolverCounters::neighbor_builds at the last search
+  std::int64_t list_renumberings_ = -1;         ///< SolverCounters::renumberings at the last search
+  std::size_t list_real_size_ = 0, list_virtual_size_ = 0;  ///< storage sizes (ghosts included) then
 };
 
 }  // namespace tsph
