@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace tsph {
@@ -124,46 +125,68 @@ class HourglassStiffness {
     };
     // A: virtual values a_v = sum_J A_vJ u_J. A's fit and weights A_vJ depend on the
     // initial coordinates, the list and which of its pairs lie within the support now:
-    // kept along the list (forward_weight_, forward_in_support_) and computed again for a
-    // row only when the list was built again or a pair of the row crossed the support's
-    // edge (the same numbers as computing them each step; 2026-11-27: the fits were 29 %
-    // of a 2D updated-Lagrangian step with the elastic defaults).
+    // kept along the list (support_weights_, forward_in_support_) and computed again for a
+    // row only when a pair of the row crossed the support's edge or, after a build of the
+    // list, when the row's pairs within the support are not those of the last step (the
+    // same numbers as computing them each step; 2026-11-27: the fits were 29 % of a 2D
+    // updated-Lagrangian step with the elastic defaults).
     const NeighborList& forward_list = state.lists.virtual_from_real;
     const bool forward_kept = forward_build_ == state.counters.neighbor_builds && forward_h_ == h &&
-                              forward_weight_.size() == forward_list.pair_count();
+                              forward_in_support_.size() == forward_list.pair_count();
     ++fit_stamp_;
     forward_version_.resize(state.virtual_.storage_size(), 0);
+    // After a build of the list a row whose pairs within the support are those of the
+    // last step, in the same order (most rows: the build follows the skin, not the
+    // row), keeps its fit and weights: the previous rows are kept for the comparison.
+    const bool compare_previous = !forward_kept && forward_build_ >= 0 && forward_h_ == h &&
+                                  forward_renumberings_ == state.counters.renumberings &&
+                                  support_count_.size() == virtual_count;
     if (!forward_kept) {
-      forward_weight_.assign(forward_list.pair_count(), 0.0);
+      std::swap(previous_entries_, support_entries_);
+      std::swap(previous_weights_, support_weights_);
+      std::swap(previous_begin_, support_begin_);
+      std::swap(previous_count_, support_count_);
       forward_in_support_.assign(forward_list.pair_count(), 0);
+      support_entries_.assign(forward_list.pair_count(), 0);
+      support_weights_.assign(forward_list.pair_count(), 0.0);
+      support_begin_.resize(virtual_count);
+      for (std::size_t v = 0; v < virtual_count; ++v) support_begin_[v] = forward_list.row_begin(v);
+      support_count_.assign(virtual_count, 0);
       forward_build_ = state.counters.neighbor_builds;
+      forward_renumberings_ = state.counters.renumberings;
       forward_h_ = h;
     }
     parallel_for(virtual_count, [&](std::size_t v) {
       const auto nb = forward_list.neighbors(v);
       const auto vi = static_cast<std::uint32_t>(v);
-      double* weight = forward_weight_.data() + forward_list.row_begin(v);
       char* kept_support = forward_in_support_.data() + forward_list.row_begin(v);
+      std::uint32_t* entries = support_entries_.data() + support_begin_[v];
+      double* weight = support_weights_.data() + support_begin_[v];
       bool same = forward_kept;
+      std::uint32_t count = 0;
       for (std::size_t k = 0; k < nb.size(); ++k) {
         const char now = state.within_support(virtual_points, v, real_points, nb[k]) ? 1 : 0;
         same = same && now == kept_support[k];
         kept_support[k] = now;
+        if (now) entries[count++] = nb[k];
       }
       if (!same) {
-        std::size_t k = 0;  // fit asks keep() once per entry of the row, in order
-        const auto in_support = [&](std::uint32_t) { return kept_support[k++] != 0; };
-        forward_fit_[v] = fit(nb, [&](std::uint32_t j) { return offset(j, vi); }, h, in_support);
-        forward_version_[v] = fit_stamp_;
-        for (std::size_t m = 0; m < nb.size(); ++m)
-          weight[m] = forward_fit_[v].weight_sum > 0.0 && kept_support[m]
-                          ? coefficient(forward_fit_[v], offset(nb[m], vi), h)
-                          : 0.0;
+        support_count_[v] = count;
+        const bool unchanged = compare_previous && previous_count_[v] == count &&
+                               std::equal(entries, entries + count, previous_entries_.data() + previous_begin_[v]);
+        if (unchanged) {
+          std::copy_n(previous_weights_.data() + previous_begin_[v], count, weight);
+        } else {
+          forward_fit_[v] = fit(std::span<const std::uint32_t>(entries, count),
+                                [&](std::uint32_t j) { return offset(j, vi); }, h, every);
+          forward_version_[v] = fit_stamp_;
+          for (std::uint32_t m = 0; m < count; ++m)
+            weight[m] = forward_fit_[v].weight_sum > 0.0 ? coefficient(forward_fit_[v], offset(entries[m], vi), h) : 0.0;
+        }
       }
       Vec value = Vec::Zero();
       if (forward_fit_[v].weight_sum > 0.0)
-        for (std::size_t m = 0; m < nb.size(); ++m)
-          if (kept_support[m]) value += weight[m] * displacement(nb[m]);
+        for (std::uint32_t m = 0; m < count; ++m) value += weight[m] * displacement(entries[m]);
       virtual_value_[v] = value;
     });
     if (mirror.active()) {
@@ -327,9 +350,20 @@ class HourglassStiffness {
 
   std::vector<Vec> kick_;                      ///< the last step's velocity changes (ledger only)
   std::vector<LinearFitWeights> forward_fit_;  ///< A, per virtual particle
-  std::vector<double> forward_weight_;         ///< A_vJ along state.lists.virtual_from_real (0 beyond the support)
-  std::vector<char> forward_in_support_;       ///< whether each pair of that list lay within the support
-  std::int64_t forward_build_ = -1;            ///< SolverCounters::neighbor_builds of the two above
+  std::vector<char> forward_in_support_;       ///< whether each pair of state.lists.virtual_from_real lay within the support
+  /// The pairs of each row within the support, in the list's order, from the row's start
+  /// in the list (support_begin_) on, support_count_ of them, and their weights A_vJ.
+  std::vector<std::uint32_t> support_entries_;
+  std::vector<double> support_weights_;
+  std::vector<std::uint64_t> support_begin_;
+  std::vector<std::uint32_t> support_count_;
+  /// The same of the list before its last build (a row that did not change keeps its fit).
+  std::vector<std::uint32_t> previous_entries_;
+  std::vector<double> previous_weights_;
+  std::vector<std::uint64_t> previous_begin_;
+  std::vector<std::uint32_t> previous_count_;
+  std::int64_t forward_build_ = -1;            ///< SolverCounters::neighbor_builds of the arrays above
+  std::int64_t forward_renumberings_ = -1;     ///< SolverCounters::renumberings of the arrays above
   double forward_h_ = 0.0;                     ///< the smoothing length they were computed with
   std::vector<std::uint64_t> forward_version_;  ///< fit_stamp_ of each virtual particle's last fit (ghosts: their owner's)
   std::uint64_t fit_stamp_ = 0;                 ///< counts the calls of apply (versions start at 1)
