@@ -332,8 +332,8 @@ class HourglassStiffness {
   }
 
   /// The real -> virtual lists of the hourglass stiffness's return trip (and the
-  /// transpose), in the initial coordinates: radius max(2h, 1.75 dx) (dx from the mean virtual volume), so that every
-  /// real particle, corners included, sees Dim + 1 virtual particles off a line.
+  /// transpose), in the initial coordinates: radius list_radius(), so that every real
+  /// particle, corners included, sees Dim + 1 virtual particles off a line.
   void build_lists(const SolverState<Dim>& state) {
     hourglass_radius_ = list_radius(state);
     hourglass_from_virtual_ = NeighborList{};  // released first: two generations never coexist (memory)
