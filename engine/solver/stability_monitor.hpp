@@ -53,6 +53,18 @@ inline constexpr std::array<int, 2> kRunawayWindows = {20, 100};
 inline constexpr double kRunawayJumpFactor = 30.0;
 inline constexpr int kRunawayJumpSteps = 10;
 inline constexpr std::int64_t kRunawayJumpAfter = 1000;
+/// A slow runaway that the rates above miss (the oscillating plate of tools/cases at
+/// dx = 0.002 in updated Lagrangian, 2026-11-28: a through-thickness mode growing 0.25 %
+/// per step reached 150 x the initial energy by the end, exit 0): with the energy ledger
+/// on (SolverSettings::energy_ledger), the energy the scheme made, E - (E0 + W) with W
+/// the works booked (energy_ledger.hpp), exceeds kCreatedEnergyFactor times the largest
+/// energy supplied so far, max (E0 + W), once the run has carried energy for
+/// kRunawayJumpAfter steps (the first steps of a load book its work a step late: a
+/// cantilever's first step "makes" 1.1 x what it was given). E is the check's kinetic and elastic energy (no
+/// plastic work; a mirror plane's particles counted whole, where the ledger counts their
+/// share: a quarter model's E reads a little high). The largest gain of a finished validation case is
+/// +46 % (the elastic smooth footing at CFL 0.1125, docs/notes/2026-11-27-energy-and-the-time-step.md).
+inline constexpr double kCreatedEnergyFactor = 1.0;
 
 /// Physical bounds (issue 14, item 4; docs/reliability.md, "Unphysical state"): each is
 /// a state that no solid modelled here reaches, so that a blow-up is stopped at its
@@ -185,6 +197,16 @@ class StabilityMonitor {
         runaway = "the largest energy so far grew steadily, x" + format_number(before / earlier) +
                   " and then x" + format_number(now / before) + " over two spans of " +
                   std::to_string(w) + " steps (to " + format_number(now) + " J)";
+    }
+    if (const EnergyLedger& l = state.energy; state.settings.energy_ledger && std::isfinite(l.initial_energy)) {
+      const double supplied = l.initial_energy + l.external_work();
+      largest_supplied_ = std::max(largest_supplied_, supplied);
+      if (runaway.empty() && energized_steps_ > kRunawayJumpAfter && largest_supplied_ > 0.0 &&
+          energy - supplied > kCreatedEnergyFactor * largest_supplied_)
+        runaway = "the scheme made " + format_number(energy - supplied) + " J of energy, more than " +
+                  format_number(kCreatedEnergyFactor) + " x the largest energy supplied (" +
+                  format_number(largest_supplied_) + " J: the initial energy and the works of the loads, " +
+                  "energy.csv); an instability that grows too slowly for the rate checks";
     }
     if (!runaway.empty()) {
       std::size_t worst = 0;  // the real particle holding the most energy
@@ -402,6 +424,7 @@ class StabilityMonitor {
   std::array<int, kRunawayGrowths.size()> energy_growth_steps_{};  ///< consecutive, per growth
   std::vector<double> largest_energy_;  ///< largest energy so far, after each recent step
   std::int64_t energized_steps_ = 0;    ///< steps with a positive largest energy
+  double largest_supplied_ = 0.0;       ///< largest E0 + W of the ledger so far
 };
 
 }  // namespace tsph
