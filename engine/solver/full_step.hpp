@@ -112,20 +112,18 @@ struct FullStep {
             state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = status.gradient_fallback ? 0 : 1;
             state.boundary.half_velocity[static_cast<std::size_t>(b)] = s.velocity;
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
-            Vec centroid = Vec::Zero();  // of the virtual stencil (surface_extrapolation)
-            std::size_t in_support = 0;  // a row with a skin also holds pairs beyond 2h
-            const double row_radius = kSupportFactor * h_row;  // a widened row is not the list's
+            // The row's normal moment (surface_extrapolation): sum_k G_k (x) r_k (r_k . n),
+            // over every weight (a skin pair beyond 2h has a zero one).
+            const Vec& normal = state.boundary.normal[static_cast<std::size_t>(b)];
+            Mat normal_moment = Mat::Zero();
             for (std::size_t k = 0; k < nb.size(); ++k) {
-              gradient_sum += w.gradient_of(k);
-              if (h_row == h ? !state.within_support(target_points, r, source_points, nb[k])
-                             : squared_distance<Dim>(target_points, r, source_points, nb[k]) > row_radius * row_radius)
-                continue;
-              centroid += state.virtual_.position_of(nb[k]);
-              ++in_support;
+              const Vec g = w.gradient_of(k);
+              gradient_sum += g;
+              const Vec offset = source.position_of(nb[k]) - target.position_of(r);
+              normal_moment += (offset.dot(normal)) * g * offset.transpose();
             }
             state.boundary.gradient_sum[static_cast<std::size_t>(b)] = gradient_sum;
-            state.boundary.stencil_offset[static_cast<std::size_t>(b)] =
-                target.position_of(r) - centroid / static_cast<double>(in_support);
+            state.boundary.normal_moment[static_cast<std::size_t>(b)] = normal_moment;
             state.boundary.half_stress_gradient[static_cast<std::size_t>(b)] =
                 Eval::stress_gradient(source, nb, w, s.stress);
           }

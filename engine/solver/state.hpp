@@ -45,7 +45,11 @@ struct BoundaryParticles {
   std::vector<StressGradient> half_stress_gradient;  ///< grad sigma^{n+1/2} (virtual set)
   std::vector<Mat> half_velocity_gradient;           ///< grad v^{n+1/2} (virtual set)
   std::vector<Vec> half_velocity;   ///< v^{n+1/2} interpolated at the particle
-  std::vector<Vec> stencil_offset;  ///< x_I - centroid of its virtual stencil
+  /// M_ab = sum_v V_v Gn_Iv,a r_b (r . n), r = x_v - x_I, over its virtual stencil (n the
+  /// normal at the list build): the gradient d_a the row reads of the field r_b (r . n)
+  /// that is zero at I, i.e. the depth at which the row evaluates a tangential gradient
+  /// that changes across the surface (surface_extrapolation.hpp).
+  std::vector<Mat> normal_moment;
   std::vector<Vec> gradient_sum;    ///< sum_J V_J Gn_IJ over its virtual stencil
   /// 1 where the half-step gradient's correction matrix was inverted, 0 where its stencil
   /// is rank-deficient (a corner at alpha 0.6: one virtual neighbour, the missing
@@ -70,7 +74,7 @@ struct BoundaryParticles {
   void for_each_field(F&& f) {
     f(particle), f(profile), f(on_surface), f(normal), f(stress), f(velocity), f(density);
     f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
-    f(half_velocity), f(stencil_offset), f(gradient_sum), f(full_rank_gradient), f(extra_plane), f(extra_normal);
+    f(half_velocity), f(normal_moment), f(gradient_sum), f(full_rank_gradient), f(extra_plane), f(extra_normal);
     f(face_area);
   }
 
@@ -96,7 +100,7 @@ struct BoundaryParticles {
     half_stress_gradient.assign(n, zero_gradient);
     half_velocity_gradient.assign(n, Mat::Zero());
     half_velocity.assign(n, Vec::Zero());
-    stencil_offset.assign(n, Vec::Zero());
+    normal_moment.assign(n, Mat::Zero());
     gradient_sum.assign(n, Vec::Zero());
     full_rank_gradient.assign(n, 0);
     extra_normal.assign(n, {Vec::Zero(), Vec::Zero()});

@@ -271,7 +271,32 @@ struct CharacteristicBoundary {
       Mat stress_global = frame * stress1 * frame.transpose();
       if (state.settings.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0)
         FreeEdge<Dim>::make_uniaxial(state, b, i, n, frame, velocity_dt, dt, stress_global);
+      // A free corner (2D; FreeEdge::free_corner): both faces are traction-free, so the
+      // in-plane stress is zero (and sigma_zz with it in plane strain, elastic), and the
+      // velocity along the second face's outward normal m follows that face's outgoing P
+      // characteristic, t_m - Z u_m carried as on a face (the own frame's relations gave
+      // u_m from the S characteristic of the first face, and the corner kept the sigma_mm
+      // the first face does not constrain). Without it the oscillating plate (dx =
+      // 0.002 m, alpha 1.2) grew a symmetric mode at its free end, 0.38 % per step
+      // (docs/notes/2026-11-28-surface-depth-and-free-corners.md). Where the half-step
+      // gradient is rank-deficient (a corner at alpha 0.6) the velocity stays the own
+      // frame's: the relation's n-derivatives would read the missing direction as zero.
+      const bool free_corner =
+          Dim == 2 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
+      if (free_corner) stress_global.setZero();
       Vec velocity_global = frame * velocity1;
+      if (free_corner && state.boundary.full_rank_gradient[b]) {
+        const Vec m = outward_plane_normal(state, i, Vec(frame.col(Dim - 1)));
+        const Mat sigma0 = in_plane<Dim>(state.boundary.stress[b]);
+        const double tm0 = m.dot(sigma0 * m), um0 = m.dot(state.boundary.velocity[b]);
+        const double dm_tm = m.dot(directional<Dim>(state.boundary.stress_gradient[b], m) * m);  // real set, n
+        const double dm_um = m.dot(state.boundary.velocity_gradient[b] * m);
+        const double dn_vn = n.dot(state.boundary.half_velocity_gradient[b] * n);  // virtual set, n+1/2
+        const double dn_snm = n.dot(directional<Dim>(state.boundary.half_stress_gradient[b], n) * m);
+        const double invariant = tm0 - z_p * um0 - c_p * dt * (dm_tm - z_p * dm_um) +
+                                 dt * (lame * dn_vn - c_p * dn_snm - z_p * force_global.dot(m));
+        velocity_global += (-invariant / z_p - m.dot(velocity_global)) * m;  // t_m = 0 at n+1
+      }
       // Further symmetry planes (an axis, a free edge or a wall crossing a plane).
       if (SymmetryPlanes<Dim>::any(state, b)) SymmetryPlanes<Dim>::project(state, b, t_new, velocity_global, stress_global);
       for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = velocity_global[d];
@@ -280,7 +305,7 @@ struct CharacteristicBoundary {
         for (int c = r; c < Dim; ++c) updated[stress_index<Dim>(r, c)] = stress_global(r, c);
       if constexpr (Dim == 2) {  // sigma_zz: plane strain follows lambda tr d; plane stress 0
         const auto zz = 3;
-        updated[zz] = elastic.plane_mode() == PlaneMode::plane_stress
+        updated[zz] = elastic.plane_mode() == PlaneMode::plane_stress || free_corner
                           ? 0.0
                           : state.boundary.stress[b][zz] + dt * lame * volumetric;
       }

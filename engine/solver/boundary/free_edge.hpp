@@ -1,6 +1,7 @@
 // SolverSettings::free_edge_uniaxial (3D): the uniaxial stress of a zero-traction
 // particle on a convex axis-parallel edge, instead of the characteristic relations on
-// its diagonal kernel normal, which leave the shear sigma_xy = -sigma_xz free.
+// its diagonal kernel normal, which leave the shear sigma_xy = -sigma_xz free; and the
+// free corners of 2D bodies (free_corner), whose stress is zero.
 #pragma once
 
 #include "engine/solver/boundary/normals.hpp"
@@ -17,6 +18,36 @@ template <int Dim>
 struct FreeEdge {
   using Vec = Vector<Dim>;
   using Mat = Matrix<Dim>;
+
+  /// Whether real particle i is a free corner at time t: extreme along every axis among
+  /// its neighbours within the support, in the initial configuration (the corner of a
+  /// box, in 2D; a vertex in 3D), with every boundary particle among those neighbours
+  /// under a traction condition whose traction is zero at t. A corner next to a held or
+  /// loaded face (the cantilever's clamp and tip) is not one. Used in 2D
+  /// (characteristics.hpp, surface_extrapolation.hpp).
+  static bool free_corner(const SolverState<Dim>& state, std::uint32_t i, double t) {
+    const PointsView<Dim> real_points = points_of<Dim>(state.real);
+    const Vec x0 = state.initial_position_of(i);
+    const double tol = 1e-6 * state.initial_spacing;
+    std::array<bool, Dim> below{}, above{};
+    for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
+      if (!state.within_support(real_points, i, real_points, j)) continue;
+      const Vec offset = state.initial_position_of(j) - x0;
+      for (int d = 0; d < Dim; ++d) {
+        below[d] = below[d] || offset[d] < -tol;
+        above[d] = above[d] || offset[d] > tol;
+      }
+      const std::int32_t bj = state.boundary.slot[j];
+      if (bj < 0) continue;
+      const auto& c = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
+      if (c.kind != BoundaryCondition<Dim>::Kind::traction ||
+          c.prescribed(state.initial_position_of(j), state.boundary.profile[static_cast<std::size_t>(bj)], t).squaredNorm() != 0.0)
+        return false;
+    }
+    for (int d = 0; d < Dim; ++d)
+      if (below[d] == above[d]) return false;
+    return true;
+  }
 
   /// SolverSettings::free_edge_uniaxial: the real particles that take the uniaxial stress
   /// of a free edge (surface particles of a traction condition on a convex axis-parallel
