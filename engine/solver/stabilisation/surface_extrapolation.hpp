@@ -15,7 +15,7 @@
 // virtual stencil's centroid depth (-1.0 dx there), and the extrapolation overshot: the
 // oscillating plate's surface bending stress 24 % above the line through the inner rows
 // (dx = 0.004 m), its elastic energy 31 % above the initial at the first turning point
-// (docs/notes/2026-11-28-surface-extrapolation-depth.md).
+// (docs/notes/2026-11-28-surface-depth-and-free-corners.md).
 #pragma once
 
 #include "engine/solver/state.hpp"
