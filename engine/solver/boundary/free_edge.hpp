@@ -26,27 +26,42 @@ struct FreeEdge {
   /// loaded face (the cantilever's clamp and tip) is not one. Used in 2D
   /// (characteristics.hpp, surface_extrapolation.hpp).
   static bool free_corner(const SolverState<Dim>& state, std::uint32_t i, double t) {
+    bool all_free = true;
+    const Sides sides = neighbour_sides(state, i, [&](std::uint32_t j) {
+      const std::int32_t bj = state.boundary.slot[j];
+      if (bj < 0) return;
+      const auto& c = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
+      if (c.kind != BoundaryCondition<Dim>::Kind::traction ||
+          c.prescribed(state.initial_position_of(j), state.boundary.profile[static_cast<std::size_t>(bj)], t).squaredNorm() != 0.0)
+        all_free = false;
+    });
+    if (!all_free) return false;
+    for (int d = 0; d < Dim; ++d)
+      if (sides.below[d] == sides.above[d]) return false;
+    return true;
+  }
+
+  /// Whether some neighbour of real particle i within the support lies below / above it
+  /// along each axis, in the initial configuration; `visit` sees each such neighbour.
+  struct Sides {
+    std::array<bool, Dim> below{}, above{};
+  };
+  template <class Visit>
+  static Sides neighbour_sides(const SolverState<Dim>& state, std::uint32_t i, Visit&& visit) {
     const PointsView<Dim> real_points = points_of<Dim>(state.real);
     const Vec x0 = state.initial_position_of(i);
     const double tol = 1e-6 * state.initial_spacing;
-    std::array<bool, Dim> below{}, above{};
+    Sides sides;
     for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
       if (!state.within_support(real_points, i, real_points, j)) continue;
       const Vec offset = state.initial_position_of(j) - x0;
       for (int d = 0; d < Dim; ++d) {
-        below[d] = below[d] || offset[d] < -tol;
-        above[d] = above[d] || offset[d] > tol;
+        sides.below[d] = sides.below[d] || offset[d] < -tol;
+        sides.above[d] = sides.above[d] || offset[d] > tol;
       }
-      const std::int32_t bj = state.boundary.slot[j];
-      if (bj < 0) continue;
-      const auto& c = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
-      if (c.kind != BoundaryCondition<Dim>::Kind::traction ||
-          c.prescribed(state.initial_position_of(j), state.boundary.profile[static_cast<std::size_t>(bj)], t).squaredNorm() != 0.0)
-        return false;
+      visit(j);
     }
-    for (int d = 0; d < Dim; ++d)
-      if (below[d] == above[d]) return false;
-    return true;
+    return sides;
   }
 
   /// SolverSettings::free_edge_uniaxial: the real particles that take the uniaxial stress
@@ -74,18 +89,9 @@ struct FreeEdge {
   /// A face particle is extreme on one axis, a corner on three, a particle on an oblique
   /// or curved surface, or on a re-entrant edge, on one or none.
   static int free_edge_axis(const SolverState<Dim>& state, std::uint32_t i) {
-    const PointsView<Dim> real_points = points_of<Dim>(state.real);
-    const Vec x0 = state.initial_position_of(i);
-    const double tol = 1e-6 * state.initial_spacing;
-    std::array<bool, Dim> below{}, above{};  // some neighbour below / above i along d
-    for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
-      if (!state.within_support(real_points, i, real_points, j)) continue;
-      const Vec offset = state.initial_position_of(j) - x0;
-      for (int d = 0; d < Dim; ++d) {
-        below[d] = below[d] || offset[d] < -tol;
-        above[d] = above[d] || offset[d] > tol;
-      }
-    }
+    const Sides sides = neighbour_sides(state, i, [](std::uint32_t) {});
+    const auto& below = sides.below;
+    const auto& above = sides.above;
     int extreme = 0, along = -1;
     for (int d = 0; d < Dim; ++d) {
       if (below[d] && above[d]) along = d;
