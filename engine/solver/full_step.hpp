@@ -41,7 +41,6 @@ struct FullStep {
     const ParticleView<Dim> source = state.virtual_.view();
     const ParticleView<Dim> target = state.real.view();
     const PointsView<Dim> source_points = points_of<Dim>(state.virtual_);
-    const PointsView<Dim> target_points = points_of<Dim>(state.real);
     const double h = state.settings.smoothing_length;
     const bool objective = state.objective_rates(), compressible = state.density_follows();
     const bool plastic = state.material.plastic();  // the model's state: SolverState::update_real_stress
@@ -112,15 +111,17 @@ struct FullStep {
             state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = status.gradient_fallback ? 0 : 1;
             state.boundary.half_velocity[static_cast<std::size_t>(b)] = s.velocity;
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
-            // The row's normal moment (surface_extrapolation): sum_k G_k (x) r_k (r_k . n),
+            // The row's normal moment (surface_extrapolation only): sum_k G_k (x) r_k (r_k . n),
             // over every weight (a skin pair beyond 2h has a zero one).
+            const bool extrapolate = state.settings.surface_extrapolation == Toggle::on;
             const Vec& normal = state.boundary.normal[static_cast<std::size_t>(b)];
             Mat normal_moment = Mat::Zero();
             for (std::size_t k = 0; k < nb.size(); ++k) {
               const Vec g = w.gradient_of(k);
               gradient_sum += g;
+              if (!extrapolate) continue;
               const Vec offset = source.position_of(nb[k]) - target.position_of(r);
-              normal_moment += (offset.dot(normal)) * g * offset.transpose();
+              normal_moment += offset.dot(normal) * g * offset.transpose();
             }
             state.boundary.gradient_sum[static_cast<std::size_t>(b)] = gradient_sum;
             state.boundary.normal_moment[static_cast<std::size_t>(b)] = normal_moment;

@@ -60,10 +60,11 @@ inline constexpr std::int64_t kRunawayJumpAfter = 1000;
 /// the works booked (energy_ledger.hpp), exceeds kCreatedEnergyFactor times the largest
 /// energy supplied so far, max (E0 + W), once the run has carried energy for
 /// kRunawayJumpAfter steps (the first steps of a load book its work a step late: a
-/// cantilever's first step "makes" 1.1 x what it was given). E is the check's kinetic and elastic energy (no
-/// plastic work; a mirror plane's particles counted whole, where the ledger counts their
-/// share: a quarter model's E reads a little high). The largest gain of a finished validation case is
-/// +46 % (the elastic smooth footing at CFL 0.1125, docs/notes/2026-11-27-energy-and-the-time-step.md).
+/// cantilever's first step "makes" 1.1 x what it was given). E is the check's kinetic
+/// and elastic energy (no plastic work; a mirror plane's particles counted whole, where
+/// the ledger counts their share: a quarter model's E reads a little high). The largest
+/// gain of a finished validation case is +46 % (the elastic smooth footing at CFL
+/// 0.1125, docs/notes/2026-11-27-energy-and-the-time-step.md).
 inline constexpr double kCreatedEnergyFactor = 1.0;
 
 /// Physical bounds (issue 14, item 4; docs/reliability.md, "Unphysical state"): each is
