@@ -405,6 +405,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   using Deficient = typename SolverSettings<Dim>::DeficientStencils;
   b.settings.deficient_stencils = c.deficient_stencils == "widen"          ? Deficient::widen
                                   : c.deficient_stencils == "widen_motion" ? Deficient::widen_motion
+                                  : c.deficient_stencils == "complete"     ? Deficient::complete
                                                                            : Deficient::keep;
   b.settings.kernel_configuration = c.kernel_configuration == "reference"
                                         ? SolverSettings<Dim>::KernelConfiguration::reference

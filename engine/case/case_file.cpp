@@ -315,7 +315,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.material_velocity_motion = m.boolean("material_velocity_motion").value_or(true);
     c.conservative_momentum = m.boolean("conservative_momentum").value_or(false);
     c.deficient_stencils =
-        m.text("deficient_stencils", false, {"keep", "widen", "widen_motion"}).value_or("keep");
+        m.text("deficient_stencils", false, {"keep", "widen", "widen_motion", "complete"}).value_or("keep");
     c.kernel_configuration =
         m.text("kernel_configuration", false, {"current", "reference"}).value_or("current");
     c.free_edge_uniaxial = m.boolean("free_edge_uniaxial").value_or(false);

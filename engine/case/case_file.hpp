@@ -131,7 +131,7 @@ struct CaseFile {
   Toggle surface_extrapolation = Toggle::automatic;  ///< SolverSettings::surface_extrapolation
   bool material_velocity_motion = true;  ///< SolverSettings::material_velocity_motion
   bool conservative_momentum = false;    ///< SolverSettings::conservative_momentum
-  std::string deficient_stencils = "keep";  ///< SolverSettings::deficient_stencils: keep, widen, widen_motion
+  std::string deficient_stencils = "keep";  ///< SolverSettings::deficient_stencils: keep, widen, widen_motion, complete
   std::string kernel_configuration = "current";  ///< SolverSettings::kernel_configuration: current, reference
   bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D only)
   std::vector<double> body_force;

@@ -94,8 +94,12 @@ struct SolverSettings {
   /// keep: the row as it is (the default: widening made the bending cases stiffer);
   /// widen: every deficient row, for the update and the motion; widen_motion: rows with
   /// a deficient gradient for both, rows with only a deficient interpolation for the
-  /// motion velocity alone.
-  enum class DeficientStencils { keep, widen, widen_motion };
+  /// motion velocity alone; complete: a free or loaded surface particle keeps its row for
+  /// the update, its motion velocity is carried from the Shepard centroid to the particle,
+  /// and the tangential derivatives its stencil misses (a corner) come from a widened
+  /// stencil for the characteristic relations (full_step.hpp, complete_deficient_row;
+  /// docs/notes/2026-11-28-deficient-surface-rows.md).
+  enum class DeficientStencils { keep, widen, widen_motion, complete };
   DeficientStencils deficient_stencils = DeficientStencils::keep;
   /// Updated Lagrangian, experimental (issue 14; docs/notes/2026-11-26-reference-kernel.md):
   /// where the kernel is evaluated. current: at the current offsets x_J - x_I (the

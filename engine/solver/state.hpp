@@ -55,6 +55,12 @@ struct BoundaryParticles {
   /// is rank-deficient (a corner at alpha 0.6: one virtual neighbour, the missing
   /// direction read as zero) or empty: then half_velocity_gradient is not a gradient
   std::vector<char> full_rank_gradient;
+  /// The projector onto the directions the virtual stencil spans (its offsets from the
+  /// interpolation's centroid): the identity where the half-step gradient has full rank;
+  /// 0 for a corner at alpha 0.6 (one virtual neighbour), the edge's direction for a 3D
+  /// edge. The characteristic relations take the rest of the tangential derivatives from
+  /// the real set at n (characteristics.hpp).
+  std::vector<Mat> half_span;
   /// The further symmetry planes the particle keeps to besides its own condition
   /// (BoundaryCondition::also_on_plane; solver/boundary/symmetry_planes.hpp): their
   /// condition indices, -1 for none (at most Dim - 1), and their unit normals at x^n
@@ -74,7 +80,7 @@ struct BoundaryParticles {
   void for_each_field(F&& f) {
     f(particle), f(profile), f(on_surface), f(normal), f(stress), f(velocity), f(density);
     f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
-    f(half_velocity), f(normal_moment), f(gradient_sum), f(full_rank_gradient), f(extra_plane), f(extra_normal);
+    f(half_velocity), f(normal_moment), f(gradient_sum), f(full_rank_gradient), f(half_span), f(extra_plane), f(extra_normal);
     f(face_area);
   }
 
@@ -103,6 +109,7 @@ struct BoundaryParticles {
     normal_moment.assign(n, Mat::Zero());
     gradient_sum.assign(n, Vec::Zero());
     full_rank_gradient.assign(n, 0);
+    half_span.assign(n, Mat::Identity());
     extra_normal.assign(n, {Vec::Zero(), Vec::Zero()});
   }
 
@@ -356,7 +363,7 @@ struct SolverState {
                          : surface_treatment            ? surface_treatment
                          : settings.free_edge_uniaxial  ? "method.free_edge_uniaxial"
                          : settings.deficient_stencils != SolverSettings<Dim>::DeficientStencils::keep
-                             ? "method.deficient_stencils = \"widen\" or \"widen_motion\""
+                             ? "method.deficient_stencils other than \"keep\""
                              : nullptr;
     if (option)
       throw std::invalid_argument(

@@ -164,10 +164,26 @@ struct CharacteristicBoundary {
       // with one virtual neighbour at alpha 0.6) the missing direction is read as zero.
       Mat velocity_dt = Mat::Zero();
       std::array<Mat, Dim> stress_dt{};
+      // With deficient_stencils = complete a row that spans fewer directions took the rest
+      // from a widened virtual stencil (full_step.hpp, complete_deficient_row); where none
+      // was regular its span P is kept, and the missing directions come from the real set
+      // at n (first order in time, for those particles only).
+      const Mat& span = state.boundary.half_span[b];
+      const bool partial = !span.isIdentity(0.0);
       for (int k = 1; k < Dim; ++k) {
         const Vec t = frame.col(k);
-        velocity_dt.col(k) = frame.transpose() * (state.boundary.half_velocity_gradient[b] * t);
-        stress_dt[k] = frame.transpose() * directional<Dim>(state.boundary.half_stress_gradient[b], t) * frame;
+        if (!partial) {
+          velocity_dt.col(k) = frame.transpose() * (state.boundary.half_velocity_gradient[b] * t);
+          stress_dt[k] = frame.transpose() * directional<Dim>(state.boundary.half_stress_gradient[b], t) * frame;
+          continue;
+        }
+        const Vec t_seen = span * t, t_missing = t - t_seen;
+        velocity_dt.col(k) = frame.transpose() * (state.boundary.half_velocity_gradient[b] * t_seen +
+                                                  state.boundary.velocity_gradient[b] * t_missing);
+        stress_dt[k] = frame.transpose() *
+                       (directional<Dim>(state.boundary.half_stress_gradient[b], t_seen) +
+                        directional<Dim>(state.boundary.stress_gradient[b], t_missing)) *
+                       frame;
       }
       if (state.settings.surface_extrapolation == Toggle::on) SurfaceExtrapolation<Dim>::apply(state, b, i, frame, t_new, velocity_dt);
       // Effective body force, with the damping, at time n.
@@ -285,7 +301,7 @@ struct CharacteristicBoundary {
           Dim == 2 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
       if (free_corner) stress_global.setZero();
       Vec velocity_global = frame * velocity1;
-      if (free_corner && state.boundary.full_rank_gradient[b]) {
+      if (free_corner && state.boundary.full_rank_gradient[b] == 1) {
         const Vec m = outward_plane_normal(state, i, Vec(frame.col(Dim - 1)));
         const Mat sigma0 = in_plane<Dim>(state.boundary.stress[b]);
         const double tm0 = m.dot(sigma0 * m), um0 = m.dot(state.boundary.velocity[b]);
