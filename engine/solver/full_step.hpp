@@ -102,7 +102,7 @@ struct FullStep {
               state.boundary.half_velocity[static_cast<std::size_t>(b)].setZero();
               state.boundary.gradient_sum[static_cast<std::size_t>(b)].setZero();
               state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = 0;
-              state.boundary.half_span[static_cast<std::size_t>(b)].setZero();
+              state.boundary.half_span[static_cast<std::size_t>(b)].setIdentity();  // zero, as read
               for (auto& g : state.boundary.half_stress_gradient[static_cast<std::size_t>(b)]) g.setZero();
             }
             return;
@@ -117,15 +117,12 @@ struct FullStep {
               deficient == Deficient::complete && slot >= 0 && (status.gradient_fallback || status.interpolation_fallback) &&
               state.boundary.on_surface[static_cast<std::size_t>(slot)] &&
               state.condition_of(r).kind != BoundaryCondition<Dim>::Kind::velocity;
-          Mat span = Mat::Identity();
-          Vec centroid = target.position_of(r);
-          if (deficient_surface) span = spanned_directions(source, nb, w, h_row, centroid);
           if (slot >= 0) {
             const auto b = slot;
             // Tangential derivatives at n+1/2 for the boundary conditions.
             state.boundary.half_velocity_gradient[static_cast<std::size_t>(b)] = s.velocity_gradient;
             state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = status.gradient_fallback ? 0 : 1;
-            state.boundary.half_span[static_cast<std::size_t>(b)] = Mat::Identity();
+            if (deficient == Deficient::complete) state.boundary.half_span[static_cast<std::size_t>(b)] = Mat::Identity();
             state.boundary.half_velocity[static_cast<std::size_t>(b)] = s.velocity;
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
             // The row's normal moment (surface_extrapolation only): sum_k G_k (x) r_k (r_k . n),
@@ -145,11 +142,12 @@ struct FullStep {
             state.boundary.half_stress_gradient[static_cast<std::size_t>(b)] =
                 Eval::stress_gradient(source, nb, w, s.stress);
           }
-          // The velocity gradient the motion's centroid correction reads.
-          Mat motion_gradient = s.velocity_gradient;
-          if (deficient_surface && !span.isIdentity(1e-12))
-            motion_gradient = complete_deficient_row(state, kernel, r, static_cast<std::size_t>(slot), span, source,
-                                                     source_points, scratch, counts);
+          // Its motion velocity's carry from the centroid to the particle (after the
+          // boundary block: widening overwrites the row's weights).
+          Vec carry = Vec::Zero();
+          if (deficient_surface)
+            carry = complete_deficient_row(state, kernel, r, static_cast<std::size_t>(slot), s.velocity_gradient, source,
+                                           nb, h_row, source_points, scratch, counts);
           if (material_motion) {  // x^{n+1} = x^n + dt v^{n+1/2}(x_r), from the midpoint x^n + dt/2 v_r^n
             Vec half_velocity = s.velocity;
             if (widen_motion) {  // the Shepard value belongs to the stencil's centroid, dx/2 inside
@@ -164,7 +162,7 @@ struct FullStep {
             // inside a face at alpha 0.6 (the face moved at 0.9 of a rigid spin's speed):
             // carried to the particle with the completed gradient.
             else if (deficient_surface)
-              half_velocity += motion_gradient * (target.position_of(r) - centroid);
+              half_velocity += carry;
             for (int d = 0; d < Dim; ++d)
               state.next_position[d][r] = target.position[d][r] + dt * (half_velocity[d] - 0.5 * target.velocity[d][r]);
           }
@@ -189,8 +187,10 @@ struct FullStep {
   /// The projector onto the directions spanned by a rank-deficient row's offsets from its
   /// interpolation centroid x_c = sum_k Wn_k x_k (BoundaryParticles::half_span): the
   /// directions along which the row's gradients, taken relative to the interpolated
-  /// value, are exact. Eigenvalues of sum_k Wn_k (x_k - x_c)(x_k - x_c)^T below 1e-8 h^2
-  /// count as missing.
+  /// value, are exact. Eigenvalues of sum_k Wn_k (x_k - x_c)(x_k - x_c)^T below 1e-8 h^2 or
+  /// 1e-3 of the largest count as missing (a face row that has left its plane a little,
+  /// such as a 3D face the interpolation guard keeps on Shepard's weights, still misses
+  /// its normal).
   [[gnu::noinline]] static Mat spanned_directions(const ParticleView<Dim>& source, std::span<const std::uint32_t> nb,
                                                   const StencilWeights<Dim>& w, double h, Vec& centroid) {
     double total = 0.0;
@@ -208,21 +208,31 @@ struct FullStep {
     }
     Eigen::SelfAdjointEigenSolver<Mat> solver(spread);
     Mat projector = Mat::Zero();
+    const double floor = std::max(1e-8 * h * h, 1e-3 * solver.eigenvalues()[Dim - 1]);
     for (int k = 0; k < Dim; ++k)
-      if (solver.eigenvalues()[k] > 1e-8 * h * h)
+      if (solver.eigenvalues()[k] > floor)
         projector += solver.eigenvectors().col(k) * solver.eigenvectors().col(k).transpose();
     return projector;
   }
 
-  /// The derivatives a deficient surface row misses (the directions outside its span P):
-  /// from a widened virtual stencil at n+1/2 (widen), or where none is regular from the
-  /// real set at n (characteristics.hpp reads half_span then). The boundary's half-step
-  /// gradients become G P + G_wide (I - P); returns that velocity gradient.
+  /// deficient_stencils = complete, a deficient surface row (its weights in
+  /// scratch.weights, its velocity gradient G): the derivatives it misses (the directions
+  /// outside its span P, spanned_directions) from a widened virtual stencil at n+1/2
+  /// (widen), or where none is regular from the real set at n (characteristics.hpp reads
+  /// half_span then). Where a tangential direction is missing (a corner, a 3D edge) the
+  /// boundary's half-step gradients become G P + G_wide (I - P). Returns the motion
+  /// velocity's carry from the Shepard centroid x_c to the particle, (G P + G_wide (I - P))
+  /// (x_r - x_c).
   template <class Kernel>
-  [[gnu::noinline]] static Mat complete_deficient_row(SolverState<Dim>& state, const Kernel& kernel, std::size_t r,
-                                                      std::size_t b, const Mat& span, const ParticleView<Dim>& source,
-                                                      const PointsView<Dim>& source_points, StepScratch& scratch,
-                                                      StencilCounts& counts) {
+  [[gnu::noinline]] static Vec complete_deficient_row(SolverState<Dim>& state, const Kernel& kernel, std::size_t r,
+                                                      std::size_t b, const Mat& row_gradient,
+                                                      const ParticleView<Dim>& source, std::span<const std::uint32_t> nb,
+                                                      double h_row, const PointsView<Dim>& source_points,
+                                                      StepScratch& scratch, StencilCounts& counts) {
+    Vec centroid;
+    const Mat span = spanned_directions(source, nb, scratch.weights, h_row, centroid);
+    const Vec carry_offset = state.real.position_of(r) - centroid;
+    if (span.isIdentity(1e-12)) return row_gradient * carry_offset;
     const Mat missing = Mat::Identity() - span;
     Mat& velocity_gradient = state.boundary.half_velocity_gradient[b];
     auto& stress_gradient = state.boundary.half_stress_gradient[b];
@@ -235,17 +245,17 @@ struct FullStep {
     if (widen(state, kernel, r, state.real.position_of(r), source_points, source.volume, scratch, h_wide, wide_status)) {
       ++counts.widened;
       const LocalState wide = Eval::evaluate(source, scratch.wide_row, scratch.weights, scratch.gathered);
-      const Mat completed = velocity_gradient * span + wide.velocity_gradient * missing;
+      const Mat completed = row_gradient * span + wide.velocity_gradient * missing;
       if (tangents_missing) {
         const auto wide_stress = Eval::stress_gradient(source, scratch.wide_row, scratch.weights, wide.stress);
         velocity_gradient = completed;
         for (std::size_t m = 0; m < stress_gradient.size(); ++m)
           stress_gradient[m] = span * stress_gradient[m] + missing * wide_stress[m];
       }
-      return completed;
+      return completed * carry_offset;
     }
     if (tangents_missing) state.boundary.half_span[b] = span;
-    return velocity_gradient * span + state.boundary.velocity_gradient[b] * missing;
+    return (row_gradient * span + state.boundary.velocity_gradient[b] * missing) * carry_offset;
   }
 
   /// A plastic material's stress at n+1 of real particle r with its own state, kept

@@ -169,7 +169,8 @@ struct CharacteristicBoundary {
       // was regular its span P is kept, and the missing directions come from the real set
       // at n (first order in time, for those particles only).
       const Mat& span = state.boundary.half_span[b];
-      const bool partial = !span.isIdentity(0.0);
+      const bool partial = state.settings.deficient_stencils == SolverSettings<Dim>::DeficientStencils::complete &&
+                           !span.isIdentity(0.0);
       for (int k = 1; k < Dim; ++k) {
         const Vec t = frame.col(k);
         if (!partial) {

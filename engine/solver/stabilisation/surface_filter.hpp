@@ -43,19 +43,19 @@ class SurfaceHourglassFilter {
           counts += status;
           if (status.no_neighbors) return;
           Vec average = Vec::Zero();
-          Vec centroid = Vec::Zero();
-          for (std::size_t k = 0; k < nb.size(); ++k) {
+          for (std::size_t k = 0; k < nb.size(); ++k)
             for (int d = 0; d < Dim; ++d) average[d] += w.value[k] * set.velocity[d][nb[k]];
-            centroid += w.value[k] * set.position_of(nb[k]);
-          }
           // Where the linear interpolation is singular (a corner at alpha 0.6: two real
           // neighbours) the Shepard average is the value at their centroid, dx / sqrt(2)
           // inside: carried to the particle with its real-set gradient at n (gradients_at_n),
           // so that the filter stays exact for linear fields there too. Before, it pulled a
           // spinning block's corners towards the slower centroid velocity, 2 % a step: the
           // block at alpha 0.6 lost angular momentum in proportion to the number of steps.
-          if (status.interpolation_fallback)
+          if (status.interpolation_fallback) {
+            Vec centroid = Vec::Zero();
+            for (std::size_t k = 0; k < nb.size(); ++k) centroid += w.value[k] * set.position_of(nb[k]);
             average += state.boundary.velocity_gradient[b] * (set.position_of(i) - centroid);
+          }
           filtered_velocity_[b] = (1.0 - epsilon) * state.velocity_of(i) + epsilon * average;
           if (SymmetryPlanes<Dim>::any(state, b)) {  // further planes keep v . m
             Vec change = filtered_velocity_[b] - state.velocity_of(i);
