@@ -102,7 +102,7 @@ struct FullStep {
               state.boundary.half_velocity[static_cast<std::size_t>(b)].setZero();
               state.boundary.gradient_sum[static_cast<std::size_t>(b)].setZero();
               state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = 0;
-              state.boundary.half_span[static_cast<std::size_t>(b)].setIdentity();  // zero, as read
+              state.boundary.half_span[static_cast<std::size_t>(b)].setIdentity();  // its zero gradients are read as they are
               for (auto& g : state.boundary.half_stress_gradient[static_cast<std::size_t>(b)]) g.setZero();
             }
             return;

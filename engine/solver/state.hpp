@@ -55,11 +55,11 @@ struct BoundaryParticles {
   /// is rank-deficient (a corner at alpha 0.6: one virtual neighbour, the missing
   /// direction read as zero) or empty: then half_velocity_gradient is not a gradient
   std::vector<char> full_rank_gradient;
-  /// The projector onto the directions the virtual stencil spans (its offsets from the
-  /// interpolation's centroid): the identity where the half-step gradient has full rank;
-  /// 0 for a corner at alpha 0.6 (one virtual neighbour), the edge's direction for a 3D
-  /// edge. The characteristic relations take the rest of the tangential derivatives from
-  /// the real set at n (characteristics.hpp).
+  /// deficient_stencils = complete only: the projector onto the directions a row's virtual
+  /// stencil spans (0 for a corner at alpha 0.6, the edge's direction for a 3D edge) where
+  /// it misses a tangent and no widened stencil was regular to complete its half-step
+  /// gradients (full_step.hpp, complete_deficient_row); the characteristic relations take
+  /// the missing tangential derivatives from the real set at n. The identity otherwise.
   std::vector<Mat> half_span;
   /// The further symmetry planes the particle keeps to besides its own condition
   /// (BoundaryCondition::also_on_plane; solver/boundary/symmetry_planes.hpp): their

@@ -173,18 +173,16 @@ struct CharacteristicBoundary {
                            !span.isIdentity(0.0);
       for (int k = 1; k < Dim; ++k) {
         const Vec t = frame.col(k);
-        if (!partial) {
-          velocity_dt.col(k) = frame.transpose() * (state.boundary.half_velocity_gradient[b] * t);
-          stress_dt[k] = frame.transpose() * directional<Dim>(state.boundary.half_stress_gradient[b], t) * frame;
-          continue;
+        const Vec t_seen = partial ? Vec(span * t) : t;
+        Vec velocity_derivative = state.boundary.half_velocity_gradient[b] * t_seen;
+        Mat stress_derivative = directional<Dim>(state.boundary.half_stress_gradient[b], t_seen);
+        if (partial) {
+          const Vec t_missing = t - t_seen;
+          velocity_derivative += state.boundary.velocity_gradient[b] * t_missing;
+          stress_derivative += directional<Dim>(state.boundary.stress_gradient[b], t_missing);
         }
-        const Vec t_seen = span * t, t_missing = t - t_seen;
-        velocity_dt.col(k) = frame.transpose() * (state.boundary.half_velocity_gradient[b] * t_seen +
-                                                  state.boundary.velocity_gradient[b] * t_missing);
-        stress_dt[k] = frame.transpose() *
-                       (directional<Dim>(state.boundary.half_stress_gradient[b], t_seen) +
-                        directional<Dim>(state.boundary.stress_gradient[b], t_missing)) *
-                       frame;
+        velocity_dt.col(k) = frame.transpose() * velocity_derivative;
+        stress_dt[k] = frame.transpose() * stress_derivative * frame;
       }
       if (state.settings.surface_extrapolation == Toggle::on) SurfaceExtrapolation<Dim>::apply(state, b, i, frame, t_new, velocity_dt);
       // Effective body force, with the damping, at time n.
@@ -302,7 +300,7 @@ struct CharacteristicBoundary {
           Dim == 2 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
       if (free_corner) stress_global.setZero();
       Vec velocity_global = frame * velocity1;
-      if (free_corner && state.boundary.full_rank_gradient[b] == 1) {
+      if (free_corner && state.boundary.full_rank_gradient[b]) {
         const Vec m = outward_plane_normal(state, i, Vec(frame.col(Dim - 1)));
         const Mat sigma0 = in_plane<Dim>(state.boundary.stress[b]);
         const double tm0 = m.dot(sigma0 * m), um0 = m.dot(state.boundary.velocity[b]);
