@@ -108,6 +108,10 @@ checks=$((checks + 1))
 [ "$(wc -c <"$out/spectrum_map/map.f64")" -eq $((441 * 441 * 8)) ] && [ "$(wc -l <"$out/spectrum_map/map_rows.csv")" -eq 442 ] &&
   cmp -s "$out/spectrum/eigenvalues.csv" "$out/spectrum_map/eigenvalues.csv" ||
   fail "tsph spectrum --write-map files: $(ls -l "$out/spectrum_map")"
+# Undamped, the beam's first bending mode is the slowest oscillation: 0.389 s at 21 x 3
+# (Euler-Bernoulli 0.3095 s; 3 rows are coarse), with its growth per step and period.
+expect 0 "^  period 3\.[0-9]{4}e-01 s \([0-9]+ steps\)  \|lambda\| - 1 = -[0-9.]+e-0[0-9] per step" spectrum \
+  "$cases/cantilever_2d.toml" --set geometry.spacing=0.05 --set damping.coefficient=0 --out "$out/spectrum_undamped"
 expect 2 "dimension 2 or 3" spectrum "$cases/bar.toml" --out "$out/spectrum"
 
 # tsph converge: the bar at alpha 1.2 and two spacings; the observed rates printed.

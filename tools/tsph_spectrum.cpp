@@ -5,7 +5,8 @@
 //
 // Prints the spectral radius, the eigenvalues of largest modulus with what their modes
 // are made of (which particles, which fields, how much of the cell-wise checkerboard the
-// virtual particles cannot see), and the fixed point U* = (I - G)^-1 f under the load at
+// virtual particles cannot see), the slowest oscillations (a beam's bending modes: period,
+// growth per step and per period), and the fixed point U* = (I - G)^-1 f under the load at
 // time.end: a velocity in U* is a creep at constant speed, which damping cannot remove.
 // The case must be one box on a lattice (the modes are read on it); its particles are
 // grouped by the type of their boundary condition (fixed: clamp, traction or velocity:
@@ -32,6 +33,7 @@
 #include <complex>
 #include <filesystem>
 #include <memory>
+#include <numbers>
 #include <numeric>
 #include <string>
 #include <string_view>
@@ -268,6 +270,30 @@ int run(const SpectrumOptions& o, const CaseFile& c) {
     const Eigen::Index k = order[static_cast<std::size_t>(q)];
     fmt::print("  {:+.9f} {:+.9f}i  |{:.9f}|  {}\n", lambda[k].real(), lambda[k].imag(),
                std::abs(lambda[k]), describe(k));
+  }
+
+  // The structure's slowest oscillations (a beam's bending modes): the eigenvalues with an
+  // angle between kSlowestAngle (below it, the unit displacement modes' round-off) and
+  // kSlowAngle rad per step and |lambda| > 0.999, by angle. Among the largest
+  // |lambda| they are hidden by the unit displacement modes, and a slow growth there (a
+  // few 1e-6 per step: per cent of energy per period) is what a long run shows
+  // (docs/notes/2026-11-28-plate-energy-step-map.md).
+  constexpr double kSlowestAngle = 1e-7, kSlowAngle = 0.05;  // a period of 6e7 .. 126 steps
+  std::vector<Eigen::Index> slow;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double angle = std::arg(lambda[k]);
+    if (angle > kSlowestAngle && angle <= kSlowAngle && std::abs(lambda[k]) > 0.999) slow.push_back(k);
+  }
+  std::stable_sort(slow.begin(), slow.end(),
+                   [&](Eigen::Index a, Eigen::Index b) { return std::arg(lambda[a]) < std::arg(lambda[b]); });
+  fmt::print("slowest oscillations ({} < angle <= {} rad per step, |lambda| > 0.999): {}\n", kSlowestAngle, kSlowAngle,
+             slow.size());
+  for (std::size_t q = 0; q < std::min<std::size_t>(6, slow.size()); ++q) {
+    const Eigen::Index k = slow[q];
+    const double angle = std::arg(lambda[k]);
+    const double steps = 2.0 * std::numbers::pi / angle;  // per period
+    fmt::print("  period {:.4e} s ({:.0f} steps)  |lambda| - 1 = {:+.3e} per step, energy x {:.4f} per period  {}\n",
+               steps * dt, steps, std::abs(lambda[k]) - 1.0, std::pow(std::abs(lambda[k]), 2.0 * steps), describe(k));
   }
 
   // The fixed point under the full load, and how singular I - G is.
