@@ -282,12 +282,16 @@ int run(const SpectrumOptions& o, const CaseFile& c) {
   std::vector<Eigen::Index> slow;
   for (Eigen::Index k = 0; k < n; ++k) {
     const double angle = std::arg(lambda[k]);
-    if (angle > kSlowestAngle && angle <= kSlowAngle && std::abs(lambda[k]) > 0.999) slow.push_back(k);
+    // and lasting a period (its amplitude above 0.1 after one: not the heavily damped
+    // near-static modes of the displacement unknowns).
+    if (angle > kSlowestAngle && angle <= kSlowAngle && std::abs(lambda[k]) > 0.999 &&
+        std::pow(std::abs(lambda[k]), 2.0 * std::numbers::pi / angle) > 0.1)
+      slow.push_back(k);
   }
   std::stable_sort(slow.begin(), slow.end(),
                    [&](Eigen::Index a, Eigen::Index b) { return std::arg(lambda[a]) < std::arg(lambda[b]); });
-  fmt::print("slowest oscillations ({} < angle <= {} rad per step, |lambda| > 0.999): {}\n", kSlowestAngle, kSlowAngle,
-             slow.size());
+  fmt::print("slowest oscillations ({} < angle <= {} rad per step, |lambda| > 0.999, amplitude > 0.1 after a period): {}\n",
+             kSlowestAngle, kSlowAngle, slow.size());
   for (std::size_t q = 0; q < std::min<std::size_t>(6, slow.size()); ++q) {
     const Eigen::Index k = slow[q];
     const double angle = std::arg(lambda[k]);
