@@ -272,30 +272,26 @@ int run(const SpectrumOptions& o, const CaseFile& c) {
                std::abs(lambda[k]), describe(k));
   }
 
-  // The structure's slowest oscillations (a beam's bending modes): the eigenvalues with an
-  // angle between kSlowestAngle (below it, the unit displacement modes' round-off) and
-  // kSlowAngle rad per step and |lambda| > 0.999, by angle. Among the largest
-  // |lambda| they are hidden by the unit displacement modes, and a slow growth there (a
-  // few 1e-6 per step: per cent of energy per period) is what a long run shows
-  // (docs/notes/2026-11-28-plate-energy-step-map.md).
+  // The structure's slowest oscillations (a beam's bending modes): angle between
+  // kSlowestAngle (below it, the unit displacement modes' round-off) and kSlowAngle rad per
+  // step, amplitude above 0.1 after one period (not the heavily damped near-static modes
+  // of the displacement unknowns), by period. Among the largest |lambda| they are hidden by
+  // the unit displacement modes, and a slow growth there (a few 1e-6 per step: per cent of
+  // energy per period) is what a long run shows (docs/notes/2026-11-28-plate-energy-step-map.md).
   constexpr double kSlowestAngle = 1e-7, kSlowAngle = 0.05;  // a period of 6e7 .. 126 steps
+  auto period_steps = [&](Eigen::Index k) { return 2.0 * std::numbers::pi / std::arg(lambda[k]); };
   std::vector<Eigen::Index> slow;
   for (Eigen::Index k = 0; k < n; ++k) {
     const double angle = std::arg(lambda[k]);
-    // and lasting a period (its amplitude above 0.1 after one: not the heavily damped
-    // near-static modes of the displacement unknowns).
-    if (angle > kSlowestAngle && angle <= kSlowAngle && std::abs(lambda[k]) > 0.999 &&
-        std::pow(std::abs(lambda[k]), 2.0 * std::numbers::pi / angle) > 0.1)
+    if (angle > kSlowestAngle && angle <= kSlowAngle && std::pow(std::abs(lambda[k]), period_steps(k)) > 0.1)
       slow.push_back(k);
   }
-  std::stable_sort(slow.begin(), slow.end(),
-                   [&](Eigen::Index a, Eigen::Index b) { return std::arg(lambda[a]) < std::arg(lambda[b]); });
-  fmt::print("slowest oscillations ({} < angle <= {} rad per step, |lambda| > 0.999, amplitude > 0.1 after a period): {}\n",
-             kSlowestAngle, kSlowAngle, slow.size());
+  std::stable_sort(slow.begin(), slow.end(), [&](Eigen::Index a, Eigen::Index b) { return period_steps(a) > period_steps(b); });
+  fmt::print("slowest oscillations ({} < angle <= {} rad per step, amplitude > 0.1 after a period): {}\n", kSlowestAngle,
+             kSlowAngle, slow.size());
   for (std::size_t q = 0; q < std::min<std::size_t>(6, slow.size()); ++q) {
     const Eigen::Index k = slow[q];
-    const double angle = std::arg(lambda[k]);
-    const double steps = 2.0 * std::numbers::pi / angle;  // per period
+    const double steps = period_steps(k);
     fmt::print("  period {:.4e} s ({:.0f} steps)  |lambda| - 1 = {:+.3e} per step, energy x {:.4f} per period  {}\n",
                steps * dt, steps, std::abs(lambda[k]) - 1.0, std::pow(std::abs(lambda[k]), 2.0 * steps), describe(k));
   }
