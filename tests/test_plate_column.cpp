@@ -331,6 +331,23 @@ TEST(ColumnValidation, Quick) {
   expect_well_formed(r, 6, 3, {"tip_rotation", "angular_momentum", "hourglass", "energy"});
 }
 
+// The shipped 3D cantilever in updated Lagrangian (tsph validate cantilever_3d_ul, quick:
+// 41 x 5 x 5 to 1.2 s). Its free edges took the density of the characteristic relations
+// on their diagonal normal, a volume rate of a stress state that the uniaxial edge stress
+// then replaces: the compressed top edges next to the clamp grew a mode from about 0.47 s
+// and the run diverged at t = 0.66 s (2026-11-28). With the edge's own volume rate
+// (1 - 2 nu) e . grad v . e (FreeEdge::uniaxial_volume_rate) it rests: tip -3.92 %
+// against the Timoshenko beam, drift 6.5e-6 L over the last 0.3 s. Label long (minutes
+// under the sanitizers).
+TEST(CantileverValidation, ThreeDimensionalUpdatedLagrangianBeamRests) {
+  const auto r = run_validation(find_case(validate::cantilever_cases(), "cantilever_3d_ul"), true);
+  expect_well_formed(r, 3, 1, {"tip_history_3d"});
+  ASSERT_EQ(r.checks.size(), 3u);
+  EXPECT_TRUE(r.checks[0].pass) << r.checks[0].figure << ": " << r.checks[0].value;  // no divergence
+  EXPECT_LT(r.checks[1].error, 0.05) << r.checks[1].figure << ": " << r.checks[1].value;
+  EXPECT_TRUE(r.checks[2].pass) << r.checks[2].figure << ": " << r.checks[2].value;  // at rest
+}
+
 // SolverSettings::surface_extrapolation in 3D fits the tangential Hessian of v_n over the
 // neighbouring surface particles of the same normal. On an edge (and on the face rows
 // next to one, whose normals tilt) those lie on a line: once the body has moved, the

@@ -20,6 +20,7 @@
 #include "engine/validation/elastica.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <string>
@@ -168,8 +169,10 @@ Result run_beam_3d(const Options& o) {
     const int nx = static_cast<int>(std::lround(kLength / dx)) + 1, ny = static_cast<int>(std::lround(kDepth / dx)) + 1;
     const std::string grid = std::to_string(nx) + " x " + std::to_string(ny) + " x " + std::to_string(ny);
     std::vector<std::vector<double>> tip;  // t, u_y, u_x
+    char spacing[32];
+    std::snprintf(spacing, sizeof spacing, "%.17g", dx);  // to_string's 6 digits miss a whole number of spacings
     const std::vector<std::string> overrides = with_user_overrides(o, {
-        "geometry.spacing=" + std::to_string(dx),
+        std::string("geometry.spacing=") + spacing,
         "method.kinematics=updated_lagrangian",
         "time.end=" + std::to_string(end_time),
         "damping.rest_velocity=0",  // run to the end; rest is judged by the tip's drift

@@ -284,8 +284,14 @@ struct CharacteristicBoundary {
 
       // Back to the global frame.
       Mat stress_global = frame * stress1 * frame.transpose();
-      if (state.settings.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0)
-        FreeEdge<Dim>::make_uniaxial(state, b, i, n, frame, velocity_dt, dt, stress_global);
+      if (state.settings.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0) {
+        const double edge_rate = FreeEdge<Dim>::make_uniaxial(state, b, i, n, frame, velocity_dt, dt, stress_global);
+        if (state.density_follows() && !std::isnan(edge_rate)) {  // the edge's own volume rate
+          state.real.density[i] =
+              state.boundary.density[b] * std::exp(-dt * FreeEdge<Dim>::uniaxial_volume_rate(state, edge_rate));
+          state.real.volume[i] = state.real.mass[i] / state.real.density[i];
+        }
+      }
       // A free corner (2D; FreeEdge::free_corner): both faces are traction-free, so the
       // in-plane stress is zero (and sigma_zz with it in plane strain, elastic), and the
       // velocity along the second face's outward normal m follows that face's outgoing P

@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace tsph {
@@ -127,11 +128,14 @@ struct FreeEdge {
   /// sigma_xy = -sigma_xz growing with mu d_x v_t (docs/method.md section 4). e is the
   /// current direction of the edge (the neighbours initially on the edge line; the
   /// coordinate axis itself in small strain), so that it turns with the body.
-  static void make_uniaxial(const SolverState<Dim>& state, std::size_t b, std::uint32_t i, const Vec& n, const Mat& frame,
-                            const Mat& velocity_dt, double dt, Mat& stress_global) {
+  /// Returns the stretch rate e . grad v . e when the edge took it (NaN otherwise): in
+  /// updated Lagrangian the caller's density follows it (uniaxial_volume_rate).
+  static double make_uniaxial(const SolverState<Dim>& state, std::size_t b, std::uint32_t i, const Vec& n,
+                              const Mat& frame, const Mat& velocity_dt, double dt, Mat& stress_global) {
+    constexpr double none = std::numeric_limits<double>::quiet_NaN();
     if constexpr (Dim == 3) {
       const int along = uniaxial_edge_axis(state, i, n);
-      if (along < 0) return;
+      if (along < 0) return none;
       const PointsView<Dim> real_points = points_of<Dim>(state.real);
       const Vec x0 = state.initial_position_of(i);
       const double tol = 1e-6 * state.initial_spacing;
@@ -142,7 +146,7 @@ struct FreeEdge {
         if (std::abs(offset[(along + 1) % 3]) > tol || std::abs(offset[(along + 2) % 3]) > tol) continue;
         chord += (offset[along] > 0.0 ? 1.0 : -1.0) * (state.real.position_of(j) - state.real.position_of(i));
       }
-      if (!(chord.norm() > 0.0)) return;
+      if (!(chord.norm() > 0.0)) return none;
       const Vec e = chord.normalized();
       // Next to a corner the kernel normal leans towards the end face (n . e up to 0.17
       // at the cantilever's first and last edge particles); velocity_dt has no normal
@@ -152,9 +156,21 @@ struct FreeEdge {
       const double rate = e_frame.dot(velocity_dt * e_frame);
       const double previous = e.dot(in_plane<Dim>(state.boundary.stress[b]) * e);
       stress_global = (previous + dt * state.material.elastic().young_modulus() * rate) * e * e.transpose();
+      return rate;
     } else {
       (void)state, (void)b, (void)i, (void)n, (void)frame, (void)velocity_dt, (void)dt, (void)stress_global;
+      return none;
     }
+  }
+
+  /// div v of a free edge stretched at `rate` along it under uniaxial stress: its two
+  /// free sides contract at -nu rate each, (1 - 2 nu) rate. The characteristic relations
+  /// on the edge's diagonal normal give a volume rate of a stress state that
+  /// make_uniaxial then replaces; the density read from it made the compressed edges
+  /// next to the 3D cantilever's clamp unstable in updated Lagrangian (diverged at
+  /// t = 0.66 s; docs/notes/2026-11-28-cantilever-3d-updated-lagrangian.md).
+  static double uniaxial_volume_rate(const SolverState<Dim>& state, double rate) {
+    return (1.0 - 2.0 * state.material.elastic().poisson_ratio()) * rate;
   }
 };
 
