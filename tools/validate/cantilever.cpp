@@ -22,6 +22,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -41,48 +42,61 @@ struct BeamRun {
 constexpr double kLength = 1.0, kDepth = 0.1, kPoisson = 0.3;
 constexpr double kUnitLoad = 6666.666666666667;  // E I / L^2 for E = 8e7, I = D^3 / 12
 
-BeamRun run_beam(const Options& o, double k, double spacing, double end_time, const std::string& tag) {
-  BeamRun out;
-  out.spacing = spacing;
-  const std::string path = o.cases_dir + "/cantilever_2d_large.toml";
-  const std::string dir = o.out_dir + "/" + tag;
+/// The particle whose initial position is nearest (x, y, z) (z = 0 in 2D frames).
+std::size_t nearest_initial(const output::VtuFrame& f, double x, double y, double z) {
+  const std::vector<double>& x0 = array_of(f, "initial_position");
+  std::size_t at = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < f.point_count; ++i) {
+    const double d = std::hypot(x0[3 * i] - x, std::hypot(x0[3 * i + 1] - y, x0[3 * i + 2] - z));
+    if (d < best) best = d, at = i;
+  }
+  return at;
+}
+
+/// Runs `file` of the cases directory into `dir` with the overrides (the rest criterion
+/// off: rest is judged by the tip's drift), `on_frame` at each frame; the stability
+/// monitor's message if it diverged, else empty.
+std::string run_to_end(const Options& o, const std::string& file, std::vector<std::string> overrides,
+                       const std::string& dir, std::function<void(const output::VtuFrame&, double)> on_frame) {
+  overrides.insert(overrides.begin(), {"damping.rest_velocity=0", "damping.rest_kinetic_energy=0"});
+  overrides = with_user_overrides(o, overrides);
   std::filesystem::create_directories(dir);
-  const std::vector<std::string> overrides = with_user_overrides(o, {
-      "geometry.spacing=" + std::to_string(spacing),
-      "boundary.1.value=[0.0," + std::to_string(k * kUnitLoad) + "]",
-      "time.end=" + std::to_string(end_time),
-      "damping.rest_velocity=0",  // run to the end; rest is judged by the tip's drift
-      "damping.rest_kinetic_energy=0",
-      "output.every=1000",
-      "output.fields=[\"displacement\"]",
-  });
-  CaseFile c = load_case(path, overrides);
+  CaseFile c = load_case(o.cases_dir + "/" + file, overrides);
   RunOptions r;
   r.out_dir = dir;
   r.quiet = o.quiet;
   r.overrides = overrides;
-  r.on_frame = [&](const output::VtuFrame& f, double t) {
-    const std::vector<double>& x0 = array_of(f, "initial_position");
-    std::size_t tip = 0;
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < f.point_count; ++i) {
-      const double d = std::hypot(x0[3 * i] - kLength, x0[3 * i + 1]);
-      if (d < best) best = d, tip = i;
-    }
-    out.tip_history.push_back({t, (f.points[3 * tip + 1] - x0[3 * tip + 1]) / kLength,
-                               f.points[3 * tip] / kLength});
-    out.axis.clear();
-    for (std::size_t i = 0; i < f.point_count; ++i)
-      if (std::abs(x0[3 * i + 1]) < 1e-9) out.axis.push_back({f.points[3 * i] / kLength, f.points[3 * i + 1] / kLength});
-  };
+  r.on_frame = std::move(on_frame);
   try {
     use_threads(o, c);
     run_case(c, r);
   } catch (const RunDiverged& e) {
-    out.diverged = true;
-    out.message = e.what();
-    out.diverged_at = out.tip_history.empty() ? 0.0 : out.tip_history.back()[0];
+    return e.what();
   }
+  return {};
+}
+
+BeamRun run_beam(const Options& o, double k, double spacing, double end_time, const std::string& tag) {
+  BeamRun out;
+  out.spacing = spacing;
+  out.message = run_to_end(o, "cantilever_2d_large.toml",
+                           {"geometry.spacing=" + std::to_string(spacing),
+                            "boundary.1.value=[0.0," + std::to_string(k * kUnitLoad) + "]",
+                            "time.end=" + std::to_string(end_time), "output.every=1000",
+                            "output.fields=[\"displacement\"]"},
+                           o.out_dir + "/" + tag, [&](const output::VtuFrame& f, double t) {
+                             const std::vector<double>& x0 = array_of(f, "initial_position");
+                             const std::size_t tip = nearest_initial(f, kLength, 0.0, 0.0);
+                             out.tip_history.push_back({t, (f.points[3 * tip + 1] - x0[3 * tip + 1]) / kLength,
+                                                        f.points[3 * tip] / kLength});
+                             out.axis.clear();
+                             for (std::size_t i = 0; i < f.point_count; ++i)
+                               if (std::abs(x0[3 * i + 1]) < 1e-9)
+                                 out.axis.push_back({f.points[3 * i] / kLength, f.points[3 * i + 1] / kLength});
+                           });
+  out.diverged = !out.message.empty();
+  if (out.diverged) out.diverged_at = out.tip_history.empty() ? 0.0 : out.tip_history.back()[0];
   return out;
 }
 
@@ -171,45 +185,20 @@ Result run_beam_3d(const Options& o) {
     std::vector<std::vector<double>> tip;  // t, u_y, u_x
     char spacing[32];
     std::snprintf(spacing, sizeof spacing, "%.17g", dx);  // to_string's 6 digits miss a whole number of spacings
-    const std::vector<std::string> overrides = with_user_overrides(o, {
-        std::string("geometry.spacing=") + spacing,
-        "method.kinematics=updated_lagrangian",
-        "time.end=" + std::to_string(end_time),
-        "damping.rest_velocity=0",  // run to the end; rest is judged by the tip's drift
-        "damping.rest_kinetic_energy=0",
-        "output.every=500",
-        "output.fields=[\"displacement\"]",
-    });
-    const std::string dir = o.out_dir + "/run_" + std::to_string(nx);
-    std::filesystem::create_directories(dir);
-    CaseFile c = load_case(o.cases_dir + "/cantilever_3d.toml", overrides);
-    RunOptions r;
-    r.out_dir = dir;
-    r.quiet = o.quiet;
-    r.overrides = overrides;
-    r.on_frame = [&](const output::VtuFrame& f, double t) {
-      const std::vector<double>& x0 = array_of(f, "initial_position");
-      std::size_t at = 0;
-      double best = std::numeric_limits<double>::infinity();
-      for (std::size_t i = 0; i < f.point_count; ++i) {
-        const double d = std::hypot(x0[3 * i] - kLength, std::hypot(x0[3 * i + 1], x0[3 * i + 2]));
-        if (d < best) best = d, at = i;
-      }
-      // Small strain (a --set of the user's) does not move the particles: the displacement.
-      const bool moved = f.points[3 * at] != x0[3 * at] || f.points[3 * at + 1] != x0[3 * at + 1];
-      const std::vector<double>& u = array_of(f, "displacement");
-      tip.push_back({t, moved ? f.points[3 * at + 1] - x0[3 * at + 1] : u[3 * at + 1],
-                     moved ? f.points[3 * at] - x0[3 * at] : u[3 * at]});
-    };
-    bool diverged = false;
-    std::string message;
-    try {
-      use_threads(o, c);
-      run_case(c, r);
-    } catch (const RunDiverged& e) {
-      diverged = true;
-      message = e.what();
-    }
+    const std::string message = run_to_end(
+        o, "cantilever_3d.toml",
+        {std::string("geometry.spacing=") + spacing, "method.kinematics=updated_lagrangian",
+         "time.end=" + std::to_string(end_time), "output.every=500", "output.fields=[\"displacement\"]"},
+        o.out_dir + "/run_" + std::to_string(nx), [&](const output::VtuFrame& f, double t) {
+          const std::vector<double>& x0 = array_of(f, "initial_position");
+          const std::size_t at = nearest_initial(f, kLength, 0.0, 0.0);
+          // Small strain (a --set of the user's) does not move the particles: the displacement.
+          const bool moved = f.points[3 * at] != x0[3 * at] || f.points[3 * at + 1] != x0[3 * at + 1];
+          const std::vector<double>& u = array_of(f, "displacement");
+          tip.push_back({t, moved ? f.points[3 * at + 1] - x0[3 * at + 1] : u[3 * at + 1],
+                         moved ? f.points[3 * at] - x0[3 * at] : u[3 * at]});
+        });
+    const bool diverged = !message.empty();
     const double reached = tip.empty() ? 0.0 : tip.back()[0];
     Check runs{"time reached / end time " + std::to_string(end_time) + " s, " + grid, reached / end_time, 1.0,
                std::abs(reached / end_time - 1.0), 1e-9, "abs", !diverged};
