@@ -22,7 +22,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -31,9 +30,7 @@ namespace tsph::validate {
 namespace {
 
 struct BeamRun {
-  double spacing = 0.0;
   bool diverged = false;
-  double diverged_at = 0.0;
   std::string message;
   std::vector<std::vector<double>> tip_history;  ///< t, delta / L, x_tip / L
   std::vector<std::vector<double>> axis;         ///< x / L, y / L of the axis at the end
@@ -54,49 +51,58 @@ std::size_t nearest_initial(const output::VtuFrame& f, double x, double y, doubl
   return at;
 }
 
-/// Runs `file` of the cases directory into `dir` with the overrides (the rest criterion
-/// off: rest is judged by the tip's drift), `on_frame` at each frame; the stability
-/// monitor's message if it diverged, else empty.
-std::string run_to_end(const Options& o, const std::string& file, std::vector<std::string> overrides,
-                       const std::string& dir, std::function<void(const output::VtuFrame&, double)> on_frame) {
-  overrides.insert(overrides.begin(), {"damping.rest_velocity=0", "damping.rest_kinetic_energy=0"});
-  overrides = with_user_overrides(o, overrides);
-  std::filesystem::create_directories(dir);
-  CaseFile c = load_case(o.cases_dir + "/" + file, overrides);
-  RunOptions r;
-  r.out_dir = dir;
-  r.quiet = o.quiet;
-  r.overrides = overrides;
-  r.on_frame = std::move(on_frame);
-  try {
-    use_threads(o, c);
-    run_case(c, r);
-  } catch (const RunDiverged& e) {
-    return e.what();
+/// The case's own overrides with the rest criterion off: the beams run to the end and
+/// rest is judged by the tip's drift (tip_drift).
+std::vector<std::string> run_to_end(std::vector<std::string> overrides) {
+  overrides.insert(overrides.end(), {"damping.rest_velocity=0", "damping.rest_kinetic_energy=0"});
+  return overrides;
+}
+
+/// At rest: how far the tip (rows t, a, b) moves over the last 0.3 s, sqrt(da^2 + db^2)
+/// from its last position, largest.
+double tip_drift(const std::vector<std::vector<double>>& rows) {
+  const auto& last = rows.back();
+  double drift = 0.0;
+  for (const auto& row : rows)
+    if (row[0] >= last[0] - 0.3) drift = std::max(drift, std::hypot(row[1] - last[1], row[2] - last[2]));
+  return drift;
+}
+
+/// Adds the curve (x = row[0], y = row[1]) to a series as its new last column.
+void add_curve(Series& series, const std::string& name, const std::vector<std::vector<double>>& rows) {
+  series.columns.push_back(name);
+  for (auto& row : series.rows) row.resize(series.columns.size(), std::nan(""));
+  for (const auto& row : rows) {
+    std::vector<double> line(series.columns.size(), std::nan(""));
+    line[0] = row[0];
+    line.back() = row[1];
+    series.rows.push_back(line);
   }
-  return {};
 }
 
 BeamRun run_beam(const Options& o, double k, double spacing, double end_time, const std::string& tag) {
   BeamRun out;
-  out.spacing = spacing;
-  out.message = run_to_end(o, "cantilever_2d_large.toml",
-                           {"geometry.spacing=" + std::to_string(spacing),
-                            "boundary.1.value=[0.0," + std::to_string(k * kUnitLoad) + "]",
-                            "time.end=" + std::to_string(end_time), "output.every=1000",
-                            "output.fields=[\"displacement\"]"},
-                           o.out_dir + "/" + tag, [&](const output::VtuFrame& f, double t) {
-                             const std::vector<double>& x0 = array_of(f, "initial_position");
-                             const std::size_t tip = nearest_initial(f, kLength, 0.0, 0.0);
-                             out.tip_history.push_back({t, (f.points[3 * tip + 1] - x0[3 * tip + 1]) / kLength,
-                                                        f.points[3 * tip] / kLength});
-                             out.axis.clear();
-                             for (std::size_t i = 0; i < f.point_count; ++i)
-                               if (std::abs(x0[3 * i + 1]) < 1e-9)
-                                 out.axis.push_back({f.points[3 * i] / kLength, f.points[3 * i + 1] / kLength});
-                           });
-  out.diverged = !out.message.empty();
-  if (out.diverged) out.diverged_at = out.tip_history.empty() ? 0.0 : out.tip_history.back()[0];
+  const CaseRun run = run_case_file(o, "cantilever_2d_large.toml",
+                                    run_to_end({"geometry.spacing=" + std::to_string(spacing),
+                                                "boundary.1.value=[0.0," + std::to_string(k * kUnitLoad) + "]",
+                                                "time.end=" + std::to_string(end_time), "output.every=1000",
+                                                "output.fields=[\"displacement\"]"}),
+                                    tag);
+  for (std::size_t q = 0; q < run.frames.size(); ++q) {
+    const output::VtuFrame& f = run.frames[q];
+    const std::vector<double>& x0 = array_of(f, "initial_position");
+    const std::size_t tip = nearest_initial(f, kLength, 0.0, 0.0);
+    out.tip_history.push_back(
+        {run.frame_times[q], (f.points[3 * tip + 1] - x0[3 * tip + 1]) / kLength, f.points[3 * tip] / kLength});
+  }
+  if (!run.frames.empty()) {
+    const output::VtuFrame& f = run.frames.back();
+    const std::vector<double>& x0 = array_of(f, "initial_position");
+    for (std::size_t i = 0; i < f.point_count; ++i)
+      if (std::abs(x0[3 * i + 1]) < 1e-9) out.axis.push_back({f.points[3 * i] / kLength, f.points[3 * i + 1] / kLength});
+  }
+  out.diverged = run.diverged;
+  out.message = run.diagnosis;
   return out;
 }
 
@@ -133,9 +139,7 @@ Result run_load(const Options& o, double k) {
     deflection.pass = deflection.error <= tolerance;
     tip_x.pass = tip_x.error <= tolerance;
     // At rest: the tip moves by less than 1e-3 L over the last 0.3 s.
-    double drift = 0.0;
-    for (const auto& row : run.tip_history)
-      if (row[0] >= last[0] - 0.3) drift = std::max(drift, std::hypot(row[1] - last[1], row[2] - last[2]));
+    const double drift = tip_drift(run.tip_history);
     Check rest{"tip drift / L over the last 0.3 s, " + grid, drift, 0.0, drift, 1e-3, "max", drift <= 1e-3};
     result.checks.push_back(deflection);
     result.checks.push_back(tip_x);
@@ -144,24 +148,9 @@ Result run_load(const Options& o, double k) {
                            ", " + std::to_string(inextensible.tip_x) + ") delta / L " +
                            std::to_string(100.0 * (last[1] / inextensible.tip_deflection - 1.0)) + " %, x_tip / L " +
                            std::to_string(100.0 * (last[2] / inextensible.tip_x - 1.0)) + " %");
-    tip_history.columns.push_back("delta / L, " + grid);
-    for (const auto& row : run.tip_history) {
-      std::vector<double> line(tip_history.columns.size(), std::nan(""));
-      line[0] = row[0];
-      line.back() = row[1];
-      tip_history.rows.push_back(line);
-    }
-    shape.columns.push_back("tsph " + grid);
-    for (auto& row : shape.rows) row.resize(shape.columns.size(), std::nan(""));
-    for (const auto& p : run.axis) {
-      std::vector<double> line(shape.columns.size(), std::nan(""));
-      line[0] = p[0];
-      line.back() = p[1];
-      shape.rows.push_back(line);
-    }
+    add_curve(tip_history, "delta / L, " + grid, run.tip_history);
+    add_curve(shape, "tsph " + grid, run.axis);
   }
-  for (auto& row : tip_history.rows) row.resize(tip_history.columns.size(), std::nan(""));
-  for (auto& row : shape.rows) row.resize(shape.columns.size(), std::nan(""));
   result.series.push_back(std::move(tip_history));
   result.series.push_back(std::move(shape));
   return result;
@@ -182,46 +171,36 @@ Result run_beam_3d(const Options& o) {
   for (double dx : spacings) {
     const int nx = static_cast<int>(std::lround(kLength / dx)) + 1, ny = static_cast<int>(std::lround(kDepth / dx)) + 1;
     const std::string grid = std::to_string(nx) + " x " + std::to_string(ny) + " x " + std::to_string(ny);
-    std::vector<std::vector<double>> tip;  // t, u_y, u_x
     char spacing[32];
     std::snprintf(spacing, sizeof spacing, "%.17g", dx);  // to_string's 6 digits miss a whole number of spacings
-    const std::string message = run_to_end(
+    const CaseRun run = run_case_file(
         o, "cantilever_3d.toml",
-        {std::string("geometry.spacing=") + spacing, "method.kinematics=updated_lagrangian",
-         "time.end=" + std::to_string(end_time), "output.every=500", "output.fields=[\"displacement\"]"},
-        o.out_dir + "/run_" + std::to_string(nx), [&](const output::VtuFrame& f, double t) {
-          const std::vector<double>& x0 = array_of(f, "initial_position");
-          const std::size_t at = nearest_initial(f, kLength, 0.0, 0.0);
-          // Small strain (a --set of the user's) does not move the particles: the displacement.
-          const bool moved = f.points[3 * at] != x0[3 * at] || f.points[3 * at + 1] != x0[3 * at + 1];
-          const std::vector<double>& u = array_of(f, "displacement");
-          tip.push_back({t, moved ? f.points[3 * at + 1] - x0[3 * at + 1] : u[3 * at + 1],
-                         moved ? f.points[3 * at] - x0[3 * at] : u[3 * at]});
-        });
-    const bool diverged = !message.empty();
-    const double reached = tip.empty() ? 0.0 : tip.back()[0];
-    Check runs{"time reached / end time " + std::to_string(end_time) + " s, " + grid, reached / end_time, 1.0,
-               std::abs(reached / end_time - 1.0), 1e-9, "abs", !diverged};
+        run_to_end({std::string("geometry.spacing=") + spacing, "method.kinematics=updated_lagrangian",
+                    "time.end=" + std::to_string(end_time), "output.every=500", "output.fields=[\"displacement\"]"}),
+        "run_" + std::to_string(nx));
+    std::vector<std::vector<double>> tip;  // t, u_y, u_x of the tip of the axis
+    for (std::size_t q = 0; q < run.frames.size(); ++q) {
+      const output::VtuFrame& f = run.frames[q];
+      const std::vector<double>& x0 = array_of(f, "initial_position");
+      const std::size_t at = nearest_initial(f, kLength, 0.0, 0.0);
+      // Small strain (a --set of the user's) does not move the particles: the displacement.
+      const bool moved = f.points[3 * at] != x0[3 * at] || f.points[3 * at + 1] != x0[3 * at + 1];
+      const std::vector<double>& u = array_of(f, "displacement");
+      tip.push_back({run.frame_times[q], moved ? f.points[3 * at + 1] - x0[3 * at + 1] : u[3 * at + 1],
+                     moved ? f.points[3 * at] - x0[3 * at] : u[3 * at]});
+    }
+    Check runs = no_divergence_check(run, result);
+    runs.figure += ", " + grid;
     result.checks.push_back(runs);
-    if (diverged) result.notes.push_back(grid + ": diverged (last frame at t = " + std::to_string(reached) + " s): " + message);
-    if (diverged || tip.empty()) {
+    if (run.diverged || tip.empty()) {
       result.checks.push_back({"tip u_y at rest, " + grid, std::nan(""), reference, std::nan(""), tolerance, "rel", false});
     } else {
       const auto& last = tip.back();
       result.checks.push_back(relative_check("tip u_y (m) at t = " + std::to_string(last[0]) + " s, " + grid, last[1],
                                              reference, tolerance));
-      double drift = 0.0;
-      for (const auto& row : tip)
-        if (row[0] >= last[0] - 0.3) drift = std::max(drift, std::hypot(row[1] - last[1], row[2] - last[2]) / kLength);
-      result.checks.push_back(bound_check("tip drift / L over the last 0.3 s, " + grid, drift, 1e-3));
+      result.checks.push_back(bound_check("tip drift / L over the last 0.3 s, " + grid, tip_drift(tip) / kLength, 1e-3));
     }
-    history.columns.push_back("u_y, " + grid);
-    for (const auto& row : tip) {
-      std::vector<double> line(history.columns.size(), std::nan(""));
-      line[0] = row[0];
-      line.back() = row[1];
-      history.rows.push_back(line);
-    }
+    add_curve(history, "u_y, " + grid, tip);
   }
   history.columns.push_back("ref Timoshenko beam");
   for (auto& row : history.rows) {

@@ -275,22 +275,19 @@ struct CharacteristicBoundary {
                           dt * ((k == l ? lame * volumetric : 0.0) +
                                 shear * (gradient(k, l) + gradient(l, k)) + rotation_rate(k, l));
 
-      // Density from the same velocity gradient (the full step's one-sided estimate is
-      // replaced, like the rest of the boundary state).
-      if (state.density_follows()) {
-        state.real.density[i] = state.boundary.density[b] * std::exp(-dt * volumetric);
-        state.real.volume[i] = state.real.mass[i] / state.real.density[i];
-      }
-
       // Back to the global frame.
       Mat stress_global = frame * stress1 * frame.transpose();
+      double volume_rate = volumetric;
       if (state.settings.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0) {
         const double edge_rate = FreeEdge<Dim>::make_uniaxial(state, b, i, n, frame, velocity_dt, dt, stress_global);
-        if (state.density_follows() && !std::isnan(edge_rate)) {  // the edge's own volume rate
-          state.real.density[i] =
-              state.boundary.density[b] * std::exp(-dt * FreeEdge<Dim>::uniaxial_volume_rate(state, edge_rate));
-          state.real.volume[i] = state.real.mass[i] / state.real.density[i];
-        }
+        if (!std::isnan(edge_rate)) volume_rate = FreeEdge<Dim>::uniaxial_volume_rate(state, edge_rate);
+      }
+      // Density from the same velocity gradient (the full step's one-sided estimate is
+      // replaced, like the rest of the boundary state); a free edge's from its own
+      // uniaxial state.
+      if (state.density_follows()) {
+        state.real.density[i] = state.boundary.density[b] * std::exp(-dt * volume_rate);
+        state.real.volume[i] = state.real.mass[i] / state.real.density[i];
       }
       // A free corner (2D; FreeEdge::free_corner): both faces are traction-free, so the
       // in-plane stress is zero (and sigma_zz with it in plane strain, elastic), and the
