@@ -182,8 +182,12 @@ void expect_round_off(const Agreement& a) {
 
 // The kernel in the current configuration with a Verlet skin (the ghosts made again
 // at each search, at the current positions).
+// The whole rod moves its Shepard surface rows as the model with planes does
+// (SolverSettings::surface_motion: shepard with mirror planes).
+const std::vector<std::string> kShepardSurfaceMotion{"method.surface_motion=\"shepard\""};
+
 TEST(MirrorPlanes, QuarterRodIsTheWholeRod) {
-  const LastFrame whole = run_text(rod_text(false), "rod_whole");
+  const LastFrame whole = run_text(rod_text(false), "rod_whole", kShepardSurfaceMotion);
   const LastFrame quarter = run_text(rod_text(true), "rod_quarter");
   ASSERT_EQ(whole.count, 13u * 11u * 11u);
   ASSERT_EQ(quarter.count, 13u * 6u * 6u);
@@ -206,7 +210,7 @@ TEST(MirrorPlanes, QuarterRodIsTheWholeRodWithTheTaylorBarsMethod) {
 
 // One plane (a half model), the kernel in the current configuration.
 TEST(MirrorPlanes, HalfRodIsTheWholeRod) {
-  const LastFrame whole = run_text(rod_text(false), "rod_whole_half");
+  const LastFrame whole = run_text(rod_text(false), "rod_whole_half", kShepardSurfaceMotion);
   const LastFrame half = run_text(rod_text(false, true), "rod_half");
   ASSERT_EQ(half.count, 13u * 11u * 6u);
   expect_round_off(compare(whole, half, 0.01));

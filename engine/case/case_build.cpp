@@ -401,6 +401,8 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   set_automatic_options(c, b.settings);
   b.settings.energy_ledger = c.energy_every > 0;
   b.settings.material_velocity_motion = c.material_velocity_motion;
+  b.settings.surface_motion = c.surface_motion == "shepard" ? SolverSettings<Dim>::SurfaceMotion::shepard
+                                                            : SolverSettings<Dim>::SurfaceMotion::linear;
   b.settings.conservative_momentum = c.conservative_momentum;
   using Deficient = typename SolverSettings<Dim>::DeficientStencils;
   b.settings.deficient_stencils = c.deficient_stencils == "widen"          ? Deficient::widen

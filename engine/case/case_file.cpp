@@ -313,6 +313,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     const std::optional<bool> extrapolation = m.boolean("surface_extrapolation");
     c.surface_extrapolation = !extrapolation ? Toggle::automatic : *extrapolation ? Toggle::on : Toggle::off;
     c.material_velocity_motion = m.boolean("material_velocity_motion").value_or(true);
+    c.surface_motion = m.text("surface_motion", false, {"linear", "shepard"}).value_or("linear");
     c.conservative_momentum = m.boolean("conservative_momentum").value_or(false);
     c.deficient_stencils =
         m.text("deficient_stencils", false, {"keep", "widen", "widen_motion", "complete"}).value_or("keep");

@@ -130,6 +130,7 @@ struct CaseFile {
   VelocityWall velocity_wall = VelocityWall::automatic;
   Toggle surface_extrapolation = Toggle::automatic;  ///< SolverSettings::surface_extrapolation
   bool material_velocity_motion = true;  ///< SolverSettings::material_velocity_motion
+  std::string surface_motion = "linear";  ///< SolverSettings::surface_motion: linear, shepard
   bool conservative_momentum = false;    ///< SolverSettings::conservative_momentum
   std::string deficient_stencils = "keep";  ///< SolverSettings::deficient_stencils: keep, widen, widen_motion, complete
   std::string kernel_configuration = "current";  ///< SolverSettings::kernel_configuration: current, reference

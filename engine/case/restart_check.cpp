@@ -131,6 +131,9 @@ std::string physics_record(const CaseFile& c) {
   r.add_text("method.velocity_wall", options.wall_gradient ? "wall_gradient" : "characteristics");
   r.add("method.surface_extrapolation", options.surface_extrapolation);
   r.add("method.material_velocity_motion", c.material_velocity_motion);
+  // Updated Lagrangian only (the key moves nothing in small strain): a small-strain
+  // checkpoint written before the key existed still matches.
+  if (c.kinematics == Kinematics::updated_lagrangian) r.add("method.surface_motion", c.surface_motion);
   r.add("method.conservative_momentum", c.conservative_momentum);
   r.add("method.deficient_stencils", c.deficient_stencils);
   r.add("method.kernel_configuration", c.kernel_configuration);

@@ -86,6 +86,18 @@ struct SolverSettings {
   /// it the body drifts and shears with no stress (the large-deflection cantilever
   /// diverges). On by default; off: the former trapezoid.
   bool material_velocity_motion = true;
+  /// Updated Lagrangian with material_velocity_motion: the motion velocity of a free or
+  /// loaded surface particle whose full-step row is on Shepard's weights (no linear
+  /// interpolation: alpha 0.6 faces, edges and corners, 3D faces the interpolation guard
+  /// keeps on Shepard). linear (the default): the linear interpolation of the row widened
+  /// as for deficient_stencils (the virtual particles of its real neighbours, h x 1.5 or
+  /// 2; Shepard's value where none is regular). shepard: the row's Shepard value, the
+  /// velocity at its centroid dx/2 inside, with which the faces of a bent beam lagged
+  /// their sections by 26 % (docs/notes/2026-11-28-surface-motion.md). The row's update
+  /// (stress, velocity) is not changed. A case with mirror planes keeps shepard (the
+  /// widened row does not see a mirror ghost's virtual neighbours).
+  enum class SurfaceMotion { shepard, linear };
+  SurfaceMotion surface_motion = SurfaceMotion::linear;
   /// Updated Lagrangian, experimental (issue 14; docs/notes/2026-11-25-deficient-stencils.md):
   /// a boundary particle whose full-step stencil is rank-deficient (a corner at
   /// h / dx = 0.6: one virtual neighbour, zero gradient; an edge: two, no linear

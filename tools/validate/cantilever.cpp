@@ -82,8 +82,10 @@ void add_curve(Series& series, const std::string& name, const std::vector<std::v
 
 BeamRun run_beam(const Options& o, double k, double spacing, double end_time, const std::string& tag) {
   BeamRun out;
+  char spacing_text[32];
+  std::snprintf(spacing_text, sizeof spacing_text, "%.17g", spacing);  // a whole number of spacings (1/60)
   const CaseRun run = run_case_file(o, "cantilever_2d_large.toml",
-                                    run_to_end({"geometry.spacing=" + std::to_string(spacing),
+                                    run_to_end({std::string("geometry.spacing=") + spacing_text,
                                                 "boundary.1.value=[0.0," + std::to_string(k * kUnitLoad) + "]",
                                                 "time.end=" + std::to_string(end_time), "output.every=1000",
                                                 "output.fields=[\"displacement\"]"}),
@@ -110,7 +112,10 @@ Result run_load(const Options& o, double k) {
   Result result;
   const ElasticaSolution reference = solve_elastica(k, rectangular_beam_compliance(k, kLength, kDepth, kPoisson));
   const ElasticaSolution inextensible = solve_elastica(k);
-  const std::vector<double> spacings = o.quick ? std::vector<double>{0.025} : std::vector<double>{0.0125, 0.01};
+  // Quick: 61 x 7. At 41 x 5 the beam is 2.4 % (k = 1) / 2.5 % (k = 3) too far since the
+  // faces move with their sections (SolverSettings::surface_motion, 2026-11-28), as small
+  // strain is at that grid (+2.3 %); the 2 % is asked at 81 x 9 and 101 x 11.
+  const std::vector<double> spacings = o.quick ? std::vector<double>{1.0 / 60.0} : std::vector<double>{0.0125, 0.01};
   const double end_time = o.quick ? 1.2 : 1.5;
   const double tolerance = 0.02;
   Series tip_history{"tip_history_k" + std::to_string(static_cast<int>(k)), "Tip of the axis, k = " + std::to_string(k),
