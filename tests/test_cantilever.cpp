@@ -254,9 +254,13 @@ TEST(Cantilever, UpdatedLagrangianMatchesTheBeam) {
                                               "damping.rest_velocity=0"});
   ASSERT_EQ(r.report.status, RunReport::Status::finished);
   ASSERT_EQ(r.report.time, 1.0);
-  EXPECT_LT(r.final_error("tip_error_percent"), 2.0) << "tip " << r.final_error("tip_displacement_y");
+  // +2.04 % since the surface particles move with their sections (method.surface_motion,
+  // 2026-11-28; before +0.7 %, their lag stiffening the beam): small strain reads +2.33 %
+  // at 41 x 5, the geometry takes about 0.2 % off.
+  EXPECT_LT(r.final_error("tip_error_percent"), 2.5) << "tip " << r.final_error("tip_displacement_y");
+  EXPECT_GT(r.final_error("tip_error_percent"), 1.5) << "tip " << r.final_error("tip_displacement_y");
   EXPECT_LT(r.final_error("axis_displacement_y_l2_percent"), 3.0);
-  EXPECT_GT(r.final_error("tip_displacement_y"), r.final_error("tip_displacement_y_exact"));  // +0.7 %, not stiff
+  EXPECT_GT(r.final_error("tip_displacement_y"), r.final_error("tip_displacement_y_exact"));  // not stiff
 }
 
 // Renumbering the particles carries every per-particle state of the stepper with them
