@@ -164,7 +164,7 @@ struct FullStep {
             // stiffer than small strain in 3D and the k = 3 elastica diverge
             // (docs/notes/2026-11-28-surface-motion.md).
             const bool linear_surface_motion =
-                surface_motion_linear && !widen_motion && !deficient_surface && slot >= 0 &&
+                surface_motion_linear && !deficient_surface && slot >= 0 &&
                 status.interpolation_fallback && state.boundary.on_surface[static_cast<std::size_t>(slot)] &&
                 state.condition_of(r).kind != BoundaryCondition<Dim>::Kind::velocity;
             if (widen_motion || linear_surface_motion) {  // the Shepard value belongs to the stencil's centroid, dx/2 inside
