@@ -326,5 +326,88 @@ TEST(MaterialInput, PoissonRatioOutsideItsRangeIsRefused) {
   EXPECT_NO_THROW(LinearElastic<3>(kYoung, 0.49, kDensity));
 }
 
+// The node-and-cell quadrature of the energies (EnergyAccounting::node_and_cell): with
+// the velocity and the stress linear in every coordinate (so both densities are
+// quadratic) it gives the exact integrals over the box, where the real particles'
+// trapezoidal sums (kinetic_energy, strain_energy) are off by O(dx^2): here by more than
+// 1e-3. The exact integrals: 3-point Gauss per axis over every cell (exact to degree 5).
+template <int Dim>
+void check_node_and_cell_energies(double alpha) {
+  const double dx = 0.01;
+  LatticeBox<Dim> box;
+  box.spacing = dx;
+  for (int d = 0; d < Dim; ++d) box.node_count[d] = 5 + 2 * d;  // 5 x 7 (x 9)
+  ParticleSet<Dim> real = make_real_lattice(box, kDensity);
+  ParticleSet<Dim> virtual_particles = make_virtual_lattice(box, kDensity);
+  constexpr int stresses = stress_component_count<Dim>;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  Matrix<Dim> a;
+  Vector<Dim> v0;
+  std::array<Vector<Dim>, stresses> sa;
+  std::array<double, stresses> s0;
+  for (int i = 0; i < Dim; ++i) {
+    v0[i] = unit(rng);
+    for (int j = 0; j < Dim; ++j) a(i, j) = 50.0 * unit(rng);
+  }
+  for (int c = 0; c < stresses; ++c) {
+    s0[c] = 1e5 * unit(rng);
+    for (int j = 0; j < Dim; ++j) sa[c][j] = 2e7 * unit(rng);
+  }
+  const auto velocity = [&](const Vector<Dim>& x) { return Vector<Dim>(v0 + a * x); };
+  const auto stress = [&](const Vector<Dim>& x) {
+    StressVector<Dim> s;
+    for (int c = 0; c < stresses; ++c) s[c] = s0[c] + sa[c].dot(x);
+    return s;
+  };
+  for (std::size_t i = 0; i < real.size(); ++i) {
+    const Vector<Dim> x = real.position_of(i);
+    const Vector<Dim> v = velocity(x);
+    const StressVector<Dim> s = stress(x);
+    for (int d = 0; d < Dim; ++d) real.velocity[d][i] = v[d];
+    for (int c = 0; c < stresses; ++c) real.stress[c][i] = s[c];
+  }
+  const LinearElastic<Dim> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
+  SolverSettings<Dim> settings;
+  settings.smoothing_length = alpha * dx;
+  TaylorSph<Dim> solver(std::move(real), std::move(virtual_particles), material, settings,
+                        {BoundaryCondition<Dim>::free("faces")});
+  // The exact integrals, cell by cell.
+  const std::array<double, 3> gauss_point{-std::sqrt(0.6), 0.0, std::sqrt(0.6)};
+  const std::array<double, 3> gauss_weight{5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
+  double kinetic = 0.0, elastic = 0.0;
+  std::array<std::int64_t, Dim> cells;
+  std::int64_t cell_count = 1, point_count = 1;
+  for (int d = 0; d < Dim; ++d) cells[d] = box.node_count[d] - 1, cell_count *= cells[d], point_count *= 3;
+  for (std::int64_t c = 0; c < cell_count; ++c)
+    for (std::int64_t p = 0; p < point_count; ++p) {
+      Vector<Dim> x;
+      double weight = 1.0;
+      std::int64_t cell = c, point = p;
+      for (int d = 0; d < Dim; ++d) {
+        const std::int64_t k = cell % cells[d], g = point % 3;
+        cell /= cells[d], point /= 3;
+        x[d] = box.lower[d] + (static_cast<double>(k) + 0.5 + 0.5 * gauss_point[g]) * dx;
+        weight *= 0.5 * gauss_weight[g] * dx;
+      }
+      kinetic += weight * 0.5 * kDensity * velocity(x).squaredNorm();
+      elastic += weight * material.strain_energy_density(stress(x));
+    }
+  const auto e = solver.node_and_cell_energies();
+  EXPECT_NEAR(e.kinetic, kinetic, 1e-12 * kinetic);
+  EXPECT_NEAR(e.elastic, elastic, 1e-12 * elastic);
+  EXPECT_GT(std::abs(solver.kinetic_energy() - kinetic), 1e-3 * kinetic);  // the trapezoidal sums
+  EXPECT_GT(std::abs(solver.strain_energy() - elastic), 1e-3 * elastic);
+}
+
+TEST(NodeAndCellEnergies, ExactForLinearFields2D) {
+  check_node_and_cell_energies<2>(1.2);
+  check_node_and_cell_energies<2>(0.6);
+}
+TEST(NodeAndCellEnergies, ExactForLinearFields3D) {
+  check_node_and_cell_energies<3>(1.2);
+  check_node_and_cell_energies<3>(0.6);
+}
+
 }  // namespace
 }  // namespace tsph

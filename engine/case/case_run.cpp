@@ -528,10 +528,20 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
   while (next_time < c.output_times.size() && solver->time() >= c.output_times[next_time] - 1e-9 * dt) ++next_time;
   std::string message;
   const auto start = std::chrono::steady_clock::now();
+  auto call_on_step = [&](std::int64_t step) {
+    RunOptions::StepRecord record{solver->time(), step, solver->kinetic_energy(), solver->strain_energy()};
+    if (o.node_and_cell_energies) {
+      const auto e = solver->node_and_cell_energies();
+      record.kinetic_node_and_cell = e.kinetic;
+      record.strain_node_and_cell = e.elastic;
+    }
+    o.on_step(record);
+  };
   if (!checkpoint) {
     frame();
     record_probes(probes, solver->real(), 0.0);
     energy.record(*solver);
+    if (o.on_step && o.node_and_cell_energies) call_on_step(0);  // E0 on that quadrature too
   }
   // A diverged run (the stepper's monitor, or the adaptive step collapsing) stops with
   // the frames and probe rows of the steps before, each of which passed the monitor.
@@ -578,7 +588,7 @@ RunReport run(const CaseFile& c, const RunOptions& o) {
       if (c.output_every > 0 && step % c.output_every == 0) write = true;
       if (step % c.probe_every == 0 || write) record_probes(probes, solver->real(), solver->time());
       if (c.energy_every > 0 && (step % c.energy_every == 0 || write)) energy.record(*solver);
-      if (o.on_step) o.on_step({solver->time(), step, solver->kinetic_energy(), solver->strain_energy()});
+      if (o.on_step) call_on_step(step);
       if (resting && solver->time() >= c.rest_after) {
         // At rest: the speed (of the rest probe, else the fastest real particle) below
         // damping.rest_velocity and, where given, the kinetic energy below

@@ -8,6 +8,7 @@
 #include "engine/output/vtu_writer.hpp"
 #include "engine/validation/exact_solution.hpp"
 
+#include <cmath>
 #include <csignal>
 #include <functional>
 #include <cstdint>
@@ -54,8 +55,15 @@ struct RunOptions {
     double time = 0.0;
     std::int64_t step = 0;
     double kinetic_energy = 0.0, strain_energy = 0.0;
+    /// The same on the node-and-cell quadrature (TaylorSph::node_and_cell_energies), when
+    /// node_and_cell_energies is set; NaN otherwise.
+    double kinetic_node_and_cell = std::nan(""), strain_node_and_cell = std::nan("");
   };
   std::function<void(const StepRecord&)> on_step;
+  /// on_step also gets the energies on the node-and-cell quadrature (an interpolation
+  /// pass over the virtual particles each step), and is called once more before the
+  /// first step of a run from t = 0, with step 0.
+  bool node_and_cell_energies = false;
 };
 
 struct RunReport {

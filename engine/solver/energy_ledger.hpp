@@ -33,6 +33,7 @@
 #include "engine/parallel.hpp"
 #include "engine/solver/boundary/normals.hpp"
 #include "engine/solver/state.hpp"
+#include "engine/solver/stencil_evaluation.hpp"
 
 #include <Eigen/Eigenvalues>
 
@@ -85,6 +86,57 @@ class EnergyAccounting {
   /// kinetic + elastic + plastic work.
   static double mechanical(const SolverState<Dim>& state) {
     return kinetic(state) + elastic(state) + plastic_work(state);
+  }
+
+  /// The kinetic and elastic energies on the node-and-cell quadrature (a diagnostic,
+  /// not the ledger's measure).
+  struct NodeAndCellEnergies {
+    double kinetic = 0.0, elastic = 0.0;
+  };
+  /// (T + 2 M) / 3: T the real particles' sums above (on tsph's node lattice the
+  /// trapezoidal rule: a face particle holds half a cell), M the midpoint rule over the
+  /// virtual particles (the cell centres), each with the real state interpolated at it
+  /// as the half step interpolates it (seed eq. 3, before the rates): m_q |v(x_q)|^2 / 2
+  /// and (m_q / rho(x_q)) w(sigma(x_q)). On a lattice the O(dx^2) errors of T and M are
+  /// +dx^2 / 12 and -dx^2 / 24 times sum_d int d_d^2 f, so the combination is exact for
+  /// every quadratic density, where T alone is not: a stress linear across the thickness
+  /// of a beam of n rows (bending) has T's elastic energy too large by 2 / (n - 1)^2
+  /// (8 % at 6 rows, 2 % at 11: docs/notes/2026-11-29-energy-quadrature.md), while
+  /// the kinetic energy of a uniform velocity has none: T's total energy rises at every
+  /// quarter period of a bending mode the scheme damps. Lists and ghosts as the half step
+  /// leaves them between steps (TaylorSph::node_and_cell_energies attaches the ghosts);
+  /// `owned_virtual`: the virtual particles to sum (the owned ones). Same bits on any
+  /// thread count.
+  template <class Kernel>
+  static NodeAndCellEnergies node_and_cell(SolverState<Dim>& state, const Kernel& kernel,
+                                           std::size_t owned_virtual) {
+    using Eval = StencilEvaluation<Dim>;
+    using StepScratch = typename Eval::StepScratch;
+    const ParticleView<Dim> source = state.real.view();
+    const PointsView<Dim> source_points = points_of<Dim>(state.real);
+    const ParticleSet<Dim>& cells = state.virtual_;
+    const bool reference = state.reference_kernel();
+    const PointsView<Dim> cell_reference = reference ? initial_points_of<Dim>(cells) : PointsView<Dim>{};
+    std::vector<double> kinetic_density(owned_virtual, 0.0), elastic_density(owned_virtual, 0.0);
+    parallel_for_with_scratch<StepScratch, StencilCounts>(
+        owned_virtual, [&](std::size_t q, StepScratch& scratch, StencilCounts&) {
+          const auto nb = state.lists.virtual_from_real.neighbors(q);
+          const ReferenceStencil<Dim> row_reference =
+              reference ? SolverState<Dim>::reference_stencil(cell_reference.point(q), state.real) : ReferenceStencil<Dim>{};
+          const StencilStatus status = compute_stencil<Dim>(
+              kernel, state.settings.smoothing_length, cells.position_of(q), source_points, source.volume, nb,
+              state.settings.interpolation, scratch.weights, simd_path(), reference ? &row_reference : nullptr);
+          if (status.no_neighbors) return;
+          const typename Eval::LocalState s = Eval::evaluate(source, nb, scratch.weights, scratch.gathered);
+          const double m = cells.mass[q];
+          kinetic_density[q] = 0.5 * m * s.velocity.squaredNorm();
+          state.material.visit([&](const auto& model) {
+            elastic_density[q] = (m / s.density) * model.strain_energy_density(s.stress);
+          });
+        });
+    const double kinetic_cells = deterministic_sum(owned_virtual, [&](std::size_t q) { return kinetic_density[q]; });
+    const double elastic_cells = deterministic_sum(owned_virtual, [&](std::size_t q) { return elastic_density[q]; });
+    return {(kinetic(state) + 2.0 * kinetic_cells) / 3.0, (elastic(state) + 2.0 * elastic_cells) / 3.0};
   }
 
   /// Before the full step: v^n and the tractions' power at n.

@@ -7,6 +7,9 @@
 // rotation of the tip face about the axis) against the linear first torsional mode.
 // Resolutions: full dx = 1/6 (37 x 7 x 7) and 1/12 (73 x 13 x 13), the tip rotation's
 // first peak compared between them; quick dx = 1/4 (25 x 5 x 5) to one linear period.
+// The energy check reads the node-and-cell quadrature (TaylorSph::node_and_cell_energies,
+// as the plate's: exact for quadratic densities, where the trapezoidal sums over a
+// section of 5 x 5 particles are off by O(2 / 4^2)); the trapezoidal gain is reported.
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/validation/twisting_column.hpp"
@@ -34,6 +37,7 @@ struct ColumnRun {
   std::int64_t steps = 0;
   double wall_seconds = 0.0;
   double initial_energy = 0.0;  ///< kinetic, from the t = 0 frame (trapezoidal masses)
+  double initial_node_and_cell = 0.0;  ///< kinetic + elastic at t = 0, node-and-cell quadrature
   std::vector<RunOptions::StepRecord> energies;
   struct Frame {
     double t, angular_momentum, tip_rotation, hourglass_u, hourglass_v;
@@ -73,7 +77,11 @@ ColumnRun run_column(const Options& o, double alpha, double dx, double end_time,
   options.out_dir = out.string();
   options.quiet = o.quiet;
   options.overrides = overrides;  // summary.json lists them
-  options.on_step = [&](const RunOptions::StepRecord& r) { run.energies.push_back(r); };
+  options.node_and_cell_energies = true;
+  options.on_step = [&](const RunOptions::StepRecord& r) {
+    if (r.step == 0) run.initial_node_and_cell = r.kinetic_node_and_cell + r.strain_node_and_cell;
+    else run.energies.push_back(r);
+  };
   options.on_frame = [&](const output::VtuFrame& f, double t) {
     const LatticeFrame<3> lattice(f, lower, upper, dx);
     const auto& v = array_of(f, "velocity");
@@ -165,14 +173,16 @@ Result twisting_column(const Options& o) {
       result.checks.push_back(c);
     }
     double gain = -std::numeric_limits<double>::infinity(), when = 0.0, onset = std::nan("");
+    double trapezoidal_gain = -std::numeric_limits<double>::infinity();
     for (const auto& e : r.energies) {
-      const double g = (e.kinetic_energy + e.strain_energy) / r.initial_energy - 1.0;
+      const double g = (e.kinetic_node_and_cell + e.strain_node_and_cell) / r.initial_node_and_cell - 1.0;
       if (g > gain) gain = g, when = e.time;
       if (g > 1e-3 && std::isnan(onset)) onset = e.time;
+      trapezoidal_gain = std::max(trapezoidal_gain, (e.kinetic_energy + e.strain_energy) / r.initial_energy - 1.0);
     }
     {
       Check c;
-      c.figure = fmt::format("largest energy gain (E - E0) / E0, {}", where);
+      c.figure = fmt::format("largest energy gain (E - E0) / E0 (node-and-cell quadrature), {}", where);
       c.value = gain;
       c.error = gain;
       c.tolerance = 1e-3;
@@ -195,16 +205,17 @@ Result twisting_column(const Options& o) {
     const auto [peak, peak_time] = first_peak(r);
     const double final_energy =
         r.energies.empty() ? std::nan("")
-                           : (r.energies.back().kinetic_energy + r.energies.back().strain_energy) / r.initial_energy;
+                           : (r.energies.back().kinetic_node_and_cell + r.energies.back().strain_node_and_cell) /
+                                 r.initial_node_and_cell;
     result.notes.push_back(
         (r.diverged ? fmt::format("{}: DIVERGED at step {} (t = {:.5g} s): {}", where, r.steps, r.time_reached, r.message)
                     : fmt::format("{}: {} steps to t = {:.5g} s in {:.1f} s", where, r.steps, r.time_reached,
                                   r.wall_seconds)) +
         fmt::format("; E/E0 at the end {:.5f}, largest gain {:+.3e} at t = {:.4g} s, first above E0 (1 + 1e-3) at "
-                    "t = {:.4g} s; first tip rotation peak {:.4g} rad "
+                    "t = {:.4g} s (node-and-cell; trapezoidal: largest gain {:+.3e}); first tip rotation peak {:.4g} rad "
                     "at t = {:.4g} s (linear: {:.4g} rad at {:.4g} s); angular momentum about the axis {:.5g} -> {:.5g} "
                     "kg m^2/s; hourglass u RMS/dx largest {:.3e}",
-                    final_energy, gain, when, onset, peak, peak_time, column.linear_tip_rotation(omega0), period / 4.0,
+                    final_energy, gain, when, onset, trapezoidal_gain, peak, peak_time, column.linear_tip_rotation(omega0), period / 4.0,
                     r.frames.empty() ? std::nan("") : r.frames.front().angular_momentum,
                     r.frames.empty() ? std::nan("") : r.frames.back().angular_momentum, hourglass));
   }
@@ -253,7 +264,7 @@ Result twisting_column(const Options& o) {
   {  // energies, sampled at the frames' times
     Series s;
     s.name = "energy";
-    s.title = "Twisting column: total energy / initial";
+    s.title = "Twisting column: total energy / initial (node-and-cell quadrature)";
     s.x_label = "t (s)";
     s.y_label = "E / E0";
     s.columns = {"t"};
@@ -268,7 +279,7 @@ Result twisting_column(const Options& o) {
           const auto it = std::lower_bound(r.energies.begin(), r.energies.end(), t,
                                            [](const auto& e, double x) { return e.time < x; });
           const auto& e = it == r.energies.end() ? r.energies.back() : *it;
-          value = (e.kinetic_energy + e.strain_energy) / r.initial_energy;
+          value = (e.kinetic_node_and_cell + e.strain_node_and_cell) / r.initial_node_and_cell;
         }
         row.push_back(value);
       }
