@@ -401,6 +401,8 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   set_automatic_options(c, b.settings);
   b.settings.energy_ledger = c.energy_every > 0;
   b.settings.material_velocity_motion = c.material_velocity_motion;
+  b.settings.hourglass_kick = c.hourglass_kick == "midpoint" ? SolverSettings<Dim>::HourglassKick::midpoint
+                                                             : SolverSettings<Dim>::HourglassKick::predicted;
   b.settings.surface_motion = c.surface_motion == "shepard" ? SolverSettings<Dim>::SurfaceMotion::shepard
                                                             : SolverSettings<Dim>::SurfaceMotion::linear;
   b.settings.conservative_momentum = c.conservative_momentum;

@@ -125,6 +125,7 @@ struct CaseFile {
   /// resolve_automatic_options (solver/settings.hpp; kAutomaticOption, automatic).
   double hourglass = kAutomaticOption;             ///< SolverSettings::hourglass_coefficient
   double hourglass_stiffness = kAutomaticOption;  ///< SolverSettings::hourglass_stiffness
+  std::string hourglass_kick = "predicted";  ///< SolverSettings::hourglass_kick: predicted, midpoint
   /// method.velocity_wall: SolverSettings::velocity_wall (the same names and order).
   enum class VelocityWall { automatic, characteristics, wall_gradient };
   VelocityWall velocity_wall = VelocityWall::automatic;

@@ -128,6 +128,8 @@ std::string physics_record(const CaseFile& c) {
   const ResolvedMethodOptions options = resolved_method_options(c);
   r.add("method.hourglass", options.hourglass);
   r.add("method.hourglass_stiffness", options.hourglass_stiffness);
+  // With the stiffness on only: a checkpoint of a run without it still matches.
+  if (options.hourglass_stiffness > 0.0) r.add_text("method.hourglass_kick", c.hourglass_kick);
   r.add_text("method.velocity_wall", options.wall_gradient ? "wall_gradient" : "characteristics");
   r.add("method.surface_extrapolation", options.surface_extrapolation);
   r.add("method.material_velocity_motion", c.material_velocity_motion);

@@ -57,6 +57,14 @@ struct SolverSettings {
   /// volume (stabilisation/hourglass_stiffness.hpp). 0: off. kAutomaticOption:
   /// resolve_automatic_options (0.05 for an elastic material in 2D and 3D).
   double hourglass_stiffness = kAutomaticOption;
+  /// Where the hourglass stiffness reads the displacement for its kick: predicted (the
+  /// default), at the displacement the step is heading for, u^n + dt/2 (v^n + v*) with v*
+  /// the full step's velocity, which damps the spring's own oscillation by
+  /// k dt^2 / (4 rho) per step; midpoint (before 2026-11-29), at u^n + dt/2 v^n, which
+  /// keeps it and lets a through-thickness mode of the Taylor step grow at alpha 1.2
+  /// (stabilisation/hourglass_stiffness.hpp; docs/notes/2026-11-29-hourglass-kick.md).
+  enum class HourglassKick { predicted, midpoint };
+  HourglassKick hourglass_kick = HourglassKick::predicted;
   /// Stress of the particles on a prescribed-velocity surface (a clamp): by the
   /// characteristic relations (boundary/characteristics.hpp; exact for the 1D bar), or by
   /// the bulk update with the velocity gradient taken relative to the wall velocity

@@ -132,6 +132,15 @@ class StabilityMonitor {
           result.first_non_finite = i;
           break;
         }
+      if (result.first_non_finite != kNoParticle)
+        for (std::size_t i = result.first_non_finite; i < end; ++i) {
+          bool bad = !std::isfinite(set.density[i]);
+          for (int m = 0; m < stress_count; ++m) bad = bad || !std::isfinite(set.stress[m][i]);
+          if (bad) {
+            result.first_non_finite_stress = i;
+            break;
+          }
+        }
       if (is_real)
         for (std::size_t i = begin; i < end; ++i) {
           double v2 = 0.0;
@@ -153,11 +162,18 @@ class StabilityMonitor {
       stability_blocks_[block] = result;
     });
     });
-    for (std::size_t block = 0; block < real_blocks + virtual_blocks; ++block)
-      if (const std::size_t i = stability_blocks_[block].first_non_finite; i != kNoParticle) {
-        const ParticleSet<Dim>& set = block < real_blocks ? state.real : state.virtual_;
-        throw SolutionDiverged(diagnosis(state, step, dt, set, i,
-                                         std::string("has a non-finite ") + non_finite(set, i, block < real_blocks)));
+    // The particle named: the first with a non-finite stress or density, else the first
+    // non-finite one. A non-finite stress spreads one stencil a step (the full step), a
+    // velocity further (the hourglass stiffness reads the step's velocities through two
+    // fits), so the stress points closer to where it started.
+    for (const bool stress_first : {true, false})
+      for (std::size_t block = 0; block < real_blocks + virtual_blocks; ++block) {
+        const StabilityBlock& b = stability_blocks_[block];
+        if (const std::size_t i = stress_first ? b.first_non_finite_stress : b.first_non_finite; i != kNoParticle) {
+          const ParticleSet<Dim>& set = block < real_blocks ? state.real : state.virtual_;
+          throw SolutionDiverged(diagnosis(state, step, dt, set, i,
+                                           std::string("has a non-finite ") + non_finite(set, i, block < real_blocks)));
+        }
       }
     check_physical_bounds(state, step, dt, real_blocks);
     double kinetic = 0.0, strain = 0.0;
@@ -405,6 +421,7 @@ class StabilityMonitor {
   static constexpr std::size_t kNoParticle = static_cast<std::size_t>(-1);
   struct StabilityBlock {
     std::size_t first_non_finite = kNoParticle;
+    std::size_t first_non_finite_stress = kNoParticle;  ///< non-finite stress or density
     double kinetic = 0.0, strain = 0.0;
     double mass = 0.0;
     std::array<double, Dim> momentum{};

@@ -43,9 +43,16 @@ class HourglassStiffness {
   /// with the spacing (the one-sided form -k r would be O(kappa M d^2 u), a competing
   /// elasticity: measured, it makes the cantilever worse). sum_v A_vJ = sum_v R_Iv = 1, so
   /// sum_J F_J = 0: linear momentum is conserved. Time integration:
-  /// v^{n+1} += dt F(u^n + dt/2 v^n) / m, with the trapezoidal displacement update an
-  /// area-preserving pair, stable for k dt^2 / rho < 4. Particles with a prescribed
-  /// velocity receive no force (their reaction is the constraint's).
+  /// v^{n+1} = v* + dt F(u*) / m at the displacement the step is heading for,
+  /// u* = u^n + dt/2 (v^n + v*), v* the full step's velocity (SolverSettings::hourglass_kick
+  /// = predicted; midpoint, before 2026-11-29: at u^n + dt/2 v^n). On the spring alone (v* = v^n) the step's determinant is
+  /// 1 - a/2, a = k dt^2 / rho: the kick damps the spring's own oscillation by a/4 per
+  /// step (stable for a < 2), where the midpoint form kept it at |lambda| = 1 and the
+  /// coupling with the Taylor step made a through-thickness mode grow: the plate at
+  /// alpha 1.2 (51 x 6, small strain, stiffness 0.05) +2.1e-4 per step at 0.48 rad per
+  /// step, 41 x 9 +1.1e-4; now none (tsph spectrum; docs/notes/2026-11-29-hourglass-kick.md).
+  /// Particles with a prescribed velocity receive no force (their reaction is the
+  /// constraint's).
   template <class Kernel>
   void apply(SolverState<Dim>& state, const Kernel& kernel, double dt) {
     if (lists_outdated(state)) build_lists(state);
@@ -91,9 +98,21 @@ class HourglassStiffness {
     auto coefficient = [&](const LinearFitWeights& f, const Vec& dx, double kernel_h) {
       return kernel.value(dx.norm(), kernel_h) / f.weight_sum * f.first_column.dot(basis(dx));
     };
-    auto displacement = [&](std::uint32_t j) {  // u^n + dt/2 v^n (begin_displacement)
+    // The displacement the step is heading for, u* = u^n + dt/2 (v^n + v*): the field holds
+    // u^n + dt/2 v^n (begin_displacement), the velocity v* the full step's v^{n+1}. A
+    // mirror ghost's velocity was refreshed before the full step: its owned particle's
+    // v*, reflected, is read instead.
+    const std::size_t owned_real = state.real.size();
+    const double ahead =
+        state.settings.hourglass_kick == SolverSettings<Dim>::HourglassKick::predicted ? 0.5 * dt : 0.0;
+    auto displacement = [&](std::uint32_t j) {
+      Vec v = state.velocity_of(j);
+      if (j >= owned_real) {
+        const std::size_t g = j - owned_real;
+        v = state.mirror.reflect_direction(state.mirror.real.planes[g], state.velocity_of(state.mirror.real.source[g]));
+      }
       Vec u;
-      for (int d = 0; d < Dim; ++d) u[d] = state.real.displacement[d][j];
+      for (int d = 0; d < Dim; ++d) u[d] = state.real.displacement[d][j] + ahead * v[d];
       return u;
     };
     // The half-step lists with a skin also hold pairs beyond 2h at the current positions
