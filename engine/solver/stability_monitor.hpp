@@ -162,12 +162,13 @@ class StabilityMonitor {
       stability_blocks_[block] = result;
     });
     });
-    // The particle named: the first with a non-finite stress or density, else the first
-    // non-finite one. A non-finite stress spreads one stencil a step (the full step), a
-    // velocity further (the hourglass stiffness reads the step's velocities through two
-    // fits), so the stress points closer to where it started.
+    // The particle named: the first real one with a non-finite stress or density, else
+    // the first non-finite one (real, then virtual). A non-finite stress spreads one
+    // stencil a step (the full step), a velocity further (the hourglass stiffness reads
+    // the step's velocities through two fits), so the stress points closer to where it
+    // started.
     for (const bool stress_first : {true, false})
-      for (std::size_t block = 0; block < real_blocks + virtual_blocks; ++block) {
+      for (std::size_t block = 0; block < (stress_first ? real_blocks : real_blocks + virtual_blocks); ++block) {
         const StabilityBlock& b = stability_blocks_[block];
         if (const std::size_t i = stress_first ? b.first_non_finite_stress : b.first_non_finite; i != kNoParticle) {
           const ParticleSet<Dim>& set = block < real_blocks ? state.real : state.virtual_;

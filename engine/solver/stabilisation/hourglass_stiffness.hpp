@@ -44,8 +44,9 @@ class HourglassStiffness {
   /// elasticity: measured, it makes the cantilever worse). sum_v A_vJ = sum_v R_Iv = 1, so
   /// sum_J F_J = 0: linear momentum is conserved. Time integration:
   /// v^{n+1} = v* + dt F(u*) / m at the displacement the step is heading for,
-  /// u* = u^n + dt/2 (v^n + v*), v* the full step's velocity (SolverSettings::hourglass_kick
-  /// = predicted; midpoint, before 2026-11-29: at u^n + dt/2 v^n). On the spring alone (v* = v^n) the step's determinant is
+  /// u* = u^n + dt/2 (v^n + v*), v* the full step's velocity
+  /// (SolverSettings::hourglass_kick = predicted; midpoint, before 2026-11-29: at
+  /// u^n + dt/2 v^n). On the spring alone (v* = v^n) the step's determinant is
   /// 1 - a/2, a = k dt^2 / rho: the kick damps the spring's own oscillation by a/4 per
   /// step (stable for a < 2), where the midpoint form kept it at |lambda| = 1 and the
   /// coupling with the Taylor step made a through-thickness mode grow: the plate at
