@@ -212,10 +212,11 @@ Result twisting_column(const Options& o) {
                     : fmt::format("{}: {} steps to t = {:.5g} s in {:.1f} s", where, r.steps, r.time_reached,
                                   r.wall_seconds)) +
         fmt::format("; E/E0 at the end {:.5f}, largest gain {:+.3e} at t = {:.4g} s, first above E0 (1 + 1e-3) at "
-                    "t = {:.4g} s (node-and-cell; trapezoidal: largest gain {:+.3e}); first tip rotation peak {:.4g} rad "
-                    "at t = {:.4g} s (linear: {:.4g} rad at {:.4g} s); angular momentum about the axis {:.5g} -> {:.5g} "
-                    "kg m^2/s; hourglass u RMS/dx largest {:.3e}",
-                    final_energy, gain, when, onset, trapezoidal_gain, peak, peak_time, column.linear_tip_rotation(omega0), period / 4.0,
+                    "t = {:.4g} s (node-and-cell; trapezoidal: largest gain {:+.3e}); first tip rotation peak "
+                    "{:.4g} rad at t = {:.4g} s (linear: {:.4g} rad at {:.4g} s); angular momentum about the axis "
+                    "{:.5g} -> {:.5g} kg m^2/s; hourglass u RMS/dx largest {:.3e}",
+                    final_energy, gain, when, onset, trapezoidal_gain, peak, peak_time,
+                    column.linear_tip_rotation(omega0), period / 4.0,
                     r.frames.empty() ? std::nan("") : r.frames.front().angular_momentum,
                     r.frames.empty() ? std::nan("") : r.frames.back().angular_momentum, hourglass));
   }
