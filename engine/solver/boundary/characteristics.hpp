@@ -279,7 +279,7 @@ struct CharacteristicBoundary {
       Mat stress_global = frame * stress1 * frame.transpose();
       double volume_rate = volumetric;
       if (state.settings.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0) {
-        const double edge_rate = FreeEdge<Dim>::make_uniaxial(state, b, i, n, frame, velocity_dt, dt, stress_global);
+        const double edge_rate = FreeEdge<Dim>::make_uniaxial(state, b, i, frame, velocity_dt, dt, stress_global);
         if (!std::isnan(edge_rate)) volume_rate = FreeEdge<Dim>::uniaxial_volume_rate(state, edge_rate);
       }
       // Density from the same velocity gradient (the full step's one-sided estimate is

@@ -170,8 +170,18 @@ struct BoundaryNormals {
   /// for a symmetry plane, keeps to it as a further plane (symmetry_planes.hpp).
   static Vec face_normal(const SolverState<Dim>& state, std::uint32_t i, const Vec& kernel_normal,
                          std::int32_t condition) {
+    const PointsView<Dim> real_points = points_of<Dim>(state.real);
+    return face_normal(state, real_points, i, kernel_normal, condition,
+                       [&](std::uint32_t j) { return state.within_support(real_points, i, real_points, j); });
+  }
+
+  /// face_normal at `points` (the current positions, or the initial ones), with the
+  /// pairs `within` accepts.
+  template <class Within>
+  static Vec face_normal(const SolverState<Dim>& state, const PointsView<Dim>& points, std::uint32_t i,
+                         const Vec& kernel_normal, std::int32_t condition, Within within) {
     if constexpr (Dim == 1) {
-      (void)state, (void)i, (void)condition;
+      (void)state, (void)points, (void)i, (void)condition, (void)within;
       return kernel_normal;
     } else {
       const bool plane = state.boundaries[static_cast<std::size_t>(condition)].kind ==
@@ -181,17 +191,15 @@ struct BoundaryNormals {
         const std::int32_t b = state.boundary.slot[j];
         return plane && b >= 0 && state.boundary.keeps_extra_plane(static_cast<std::size_t>(b), condition);
       };
-      const PointsView<Dim> real_points = points_of<Dim>(state.real);
-      std::vector<Vec> points{state.real.position_of(i)};
+      std::vector<Vec> on_plane{points.point(i)};
       for (std::uint32_t j : state.lists.real_from_real.neighbors(i))
-        if (on_face(j) && state.within_support(real_points, i, real_points, j))
-          points.push_back(state.real.position_of(j));
-      if (points.size() < static_cast<std::size_t>(Dim)) return kernel_normal;
+        if (on_face(j) && within(j)) on_plane.push_back(points.point(j));
+      if (on_plane.size() < static_cast<std::size_t>(Dim)) return kernel_normal;
       Vec mean = Vec::Zero();
-      for (const Vec& x : points) mean += x;
-      mean /= static_cast<double>(points.size());
+      for (const Vec& x : on_plane) mean += x;
+      mean /= static_cast<double>(on_plane.size());
       Mat covariance = Mat::Zero();
-      for (const Vec& x : points) covariance += (x - mean) * (x - mean).transpose();
+      for (const Vec& x : on_plane) covariance += (x - mean) * (x - mean).transpose();
       Eigen::SelfAdjointEigenSolver<Mat> eigen(covariance);
       const auto& spread = eigen.eigenvalues();  // increasing
       if (!(spread[1] > 0.0) || spread[0] > 0.1 * spread[1]) return kernel_normal;
