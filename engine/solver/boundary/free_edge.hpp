@@ -178,7 +178,7 @@ struct FreeEdge {
       // column: it is filled in with the virtual set's normal derivative at n+1/2, so that
       // the rate is the whole directional derivative along e. Left zero, the rate read
       // (n . e) (d v_n / d e_t) in a rigid spin: the end particles of the rotating cube's
-      // edges took a uniaxial stress growing at 0.3 E omega, and the cube lost 88 % of its
+      // edges took a uniaxial stress growing at 0.12 E omega, and the cube lost 88 % of its
       // angular momentum in a turn at alpha 1.2 (2026-11-29). Where that stencil is
       // rank-deficient (an edge at alpha 0.6: two virtual neighbours on the edge line) the
       // column stays zero: the real set's at n instead took the 41 x 5 x 5 cantilever in
