@@ -299,9 +299,16 @@ struct CharacteristicBoundary {
       // (docs/notes/2026-11-28-surface-depth-and-free-corners.md). Where the half-step
       // gradient is rank-deficient (a corner at alpha 0.6) the velocity stays the own
       // frame's: the relation's n-derivatives would read the missing direction as zero.
+      // A free vertex (3D, the same test: extreme along all three axes, every boundary
+      // neighbour under a zero traction) has three traction-free faces, so its stress is
+      // zero too; its velocity stays the own frame's. Before, the twisting column at
+      // alpha 1.2 diverged from its free end's vertices (dx = 1/12 at 0.37 of its time; now
+      // it reaches the end, docs/notes/2026-11-29-free-edges-in-rotation.md).
       const bool free_corner =
           Dim == 2 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
-      if (free_corner) stress_global.setZero();
+      const bool free_vertex =
+          Dim == 3 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
+      if (free_corner || free_vertex) stress_global.setZero();
       Vec velocity_global = frame * velocity1;
       if (free_corner && state.boundary.full_rank_gradient[b]) {
         const Vec m = outward_plane_normal(state, i, Vec(frame.col(Dim - 1)));

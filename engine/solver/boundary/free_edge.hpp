@@ -24,8 +24,8 @@ struct FreeEdge {
   /// its neighbours within the support, in the initial configuration (the corner of a
   /// box, in 2D; a vertex in 3D), with every boundary particle among those neighbours
   /// under a traction condition whose traction is zero at t. A corner next to a held or
-  /// loaded face (the cantilever's clamp and tip) is not one. Used in 2D
-  /// (characteristics.hpp, surface_extrapolation.hpp).
+  /// loaded face (the cantilever's clamp and tip) is not one. Used in 2D and, for the
+  /// zero stress of a free vertex, in 3D (characteristics.hpp, surface_extrapolation.hpp).
   static bool free_corner(const SolverState<Dim>& state, std::uint32_t i, double t) {
     bool all_free = true;
     const Sides sides = neighbour_sides(state, i, [&](std::uint32_t j) {
