@@ -3,6 +3,7 @@
 // times, the error figures and the energies after every step.
 #pragma once
 
+#include "engine/case/case_build.hpp"
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 
@@ -50,6 +51,19 @@ struct CaseRun {
 inline std::string shipped_case(const std::string& name) {
   return std::string(TSPH_SOURCE_DIR) + "/tools/cases/" + name;
 }
+
+/// A shipped case built with `overrides` and its solver stepped `steps` times with the
+/// case's time step; the solver is kept with the case and the model it was built from.
+template <int Dim>
+struct SteppedCase {
+  CaseFile file;
+  BuiltCase<Dim> model;
+  TaylorSph<Dim> solver;
+  SteppedCase(const std::string& name, const std::vector<std::string>& overrides, int steps)
+      : file(load_case(shipped_case(name), overrides)), model(build_case<Dim>(file)), solver(make_solver(file, model)) {
+    for (int k = 0; k < steps; ++k) solver.step(model.dt);
+  }
+};
 
 /// A fresh output directory under the test's temporary directory.
 inline std::string fresh_output_directory() {

@@ -167,13 +167,12 @@ TEST(Cantilever, FreeEdgesOfAnAxisAlignedBoxOnly) {
 // the normal derivative, and the end particles of the edges took (n . e) E omega:
 // 81 kPa at this point, and the cube lost 88 % of its spin in a turn (2026-11-29).
 TEST(Cantilever, FreeEdgesOfASpinningCubeKeepTheirStressSmall) {
-  const CaseFile c = load_case(testing_cases::shipped_case("rotation_3d.toml"),
-                               {"geometry.spacing=0.2", "method.alpha=1.2", "method.free_edge_uniaxial=true"});
-  BuiltCase<3> model = build_case<3>(c);
-  TaylorSph<3> solver = make_solver(c, model);
+  testing_cases::SteppedCase<3> cube("rotation_3d.toml",
+                                     {"geometry.spacing=0.2", "method.alpha=1.2", "method.free_edge_uniaxial=true"}, 0);
+  TaylorSph<3>& solver = cube.solver;
   const std::vector<std::uint32_t> edge = solver.free_edge_particles();
   ASSERT_EQ(edge.size(), 12u * 4u);
-  for (int k = 0; k < 130; ++k) solver.step(model.dt);
+  for (int k = 0; k < 130; ++k) solver.step(cube.model.dt);
   EXPECT_GT(solver.time() * 2.0, 1.2);  // turned more than 69 degrees
   EXPECT_EQ(solver.free_edge_particles(), edge);
   double largest = 0.0;
@@ -190,12 +189,8 @@ TEST(Cantilever, FreeEdgesOfASpinningCubeKeepTheirStressSmall) {
 // Before 2026-11-29 a vertex took the characteristic relations on its diagonal normal
 // (12.7 kPa at the rotating cube's corners after 0.8 s).
 TEST(Cantilever, FreeVerticesCarryNoStress) {
-  const CaseFile c = load_case(testing_cases::shipped_case("rotation_3d.toml"),
-                               {"geometry.spacing=0.2", "method.alpha=1.2"});
-  BuiltCase<3> model = build_case<3>(c);
-  TaylorSph<3> solver = make_solver(c, model);
-  for (int k = 0; k < 20; ++k) solver.step(model.dt);
-  const auto& r = solver.real();
+  const testing_cases::SteppedCase<3> cube("rotation_3d.toml", {"geometry.spacing=0.2", "method.alpha=1.2"}, 20);
+  const auto& r = cube.solver.real();
   int vertices = 0;
   double largest_face = 0.0;
   for (std::size_t i = 0; i < r.size(); ++i) {
@@ -212,11 +207,8 @@ TEST(Cantilever, FreeVerticesCarryNoStress) {
   EXPECT_EQ(vertices, 8);
   EXPECT_GT(largest_face, 10.0);
 
-  const CaseFile beam = load_case(testing_cases::shipped_case("cantilever_3d.toml"), {"geometry.spacing=0.05", "method.alpha=1.2"});
-  BuiltCase<3> beam_model = build_case<3>(beam);
-  TaylorSph<3> beam_solver = make_solver(beam, beam_model);
-  for (int k = 0; k < 50; ++k) beam_solver.step(beam_model.dt);
-  const auto& b = beam_solver.real();
+  const testing_cases::SteppedCase<3> beam("cantilever_3d.toml", {"geometry.spacing=0.05", "method.alpha=1.2"}, 50);
+  const auto& b = beam.solver.real();
   int loaded = 0;
   for (std::size_t i = 0; i < b.size(); ++i)
     if (std::abs(b.initial_position[0][i] - 1.0) < 1e-9 && std::abs(std::abs(b.initial_position[1][i]) - 0.05) < 1e-9 &&

@@ -13,6 +13,7 @@
 #include "engine/case/case_file.hpp"
 #include "engine/solver/full_step.hpp"
 #include "kernels/corrected_operators.hpp"
+#include "tests/case_helpers.hpp"
 
 #include <gtest/gtest.h>
 
@@ -74,12 +75,8 @@ TEST(DeficientStencils, NearlyCoplanarRowsExceedTheInterpolationBound) {
 // it the face rows keep Shepard's weights and 40 steps (a quarter turn) stay below twice
 // the corner speed omega R = 1.41 m/s.
 TEST(DeficientStencils, RotatingCubeAtAlpha06KeepsShepardOnItsFaces) {
-  const CaseFile c = load_case(std::string(TSPH_SOURCE_DIR) + "/tools/cases/rotation_3d.toml",
-                               {"geometry.spacing=0.2", "output.every=0"});
-  BuiltCase<3> b = build_case<3>(c);
-  TaylorSph<3> solver = make_solver(c, b);
-  for (int step = 0; step < 40; ++step) solver.step(b.dt);
-  const auto& r = solver.real();
+  const testing_cases::SteppedCase<3> cube("rotation_3d.toml", {"geometry.spacing=0.2", "output.every=0"}, 40);
+  const auto& r = cube.solver.real();
   double fastest = 0.0;
   for (std::size_t i = 0; i < r.size(); ++i)
     fastest = std::max(fastest, std::hypot(r.velocity[0][i], r.velocity[1][i], r.velocity[2][i]));

@@ -27,18 +27,20 @@ struct FreeEdge {
   /// loaded face (the cantilever's clamp and tip) is not one. Used in 2D and, for the
   /// zero stress of a free vertex, in 3D (characteristics.hpp, surface_extrapolation.hpp).
   static bool free_corner(const SolverState<Dim>& state, std::uint32_t i, double t) {
-    bool all_free = true;
-    const Sides sides = neighbour_sides(state, i, [&](std::uint32_t j) {
+    // The geometry first (the neighbours' conditions are evaluated for corners only: in
+    // 3D every free surface particle asks, and the conditions cost 1.7 % of the step).
+    const Sides sides = neighbour_sides(state, i, [](std::uint32_t) {});
+    for (int d = 0; d < Dim; ++d)
+      if (sides.below[d] == sides.above[d]) return false;
+    const PointsView<Dim> real_points = points_of<Dim>(state.real);
+    for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
       const std::int32_t bj = state.boundary.slot[j];
-      if (bj < 0) return;
+      if (bj < 0 || !state.within_support(real_points, i, real_points, j)) continue;
       const auto& c = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
       if (c.kind != BoundaryCondition<Dim>::Kind::traction ||
           c.prescribed(state.initial_position_of(j), state.boundary.profile[static_cast<std::size_t>(bj)], t).squaredNorm() != 0.0)
-        all_free = false;
-    });
-    if (!all_free) return false;
-    for (int d = 0; d < Dim; ++d)
-      if (sides.below[d] == sides.above[d]) return false;
+        return false;
+    }
     return true;
   }
 
