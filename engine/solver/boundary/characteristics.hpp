@@ -305,12 +305,10 @@ struct CharacteristicBoundary {
       // alpha 1.2 diverged from its free end's vertices (dx = 1/12 at 0.37 of its time; now
       // it reaches the end, docs/notes/2026-11-29-free-edges-in-rotation.md).
       const bool free_corner =
-          Dim == 2 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
-      const bool free_vertex =
-          Dim == 3 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
-      if (free_corner || free_vertex) stress_global.setZero();
+          Dim >= 2 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
+      if (free_corner) stress_global.setZero();
       Vec velocity_global = frame * velocity1;
-      if (free_corner && state.boundary.full_rank_gradient[b]) {
+      if (Dim == 2 && free_corner && state.boundary.full_rank_gradient[b]) {
         const Vec m = outward_plane_normal(state, i, Vec(frame.col(Dim - 1)));
         const Mat sigma0 = in_plane<Dim>(state.boundary.stress[b]);
         const double tm0 = m.dot(sigma0 * m), um0 = m.dot(state.boundary.velocity[b]);
