@@ -6,6 +6,7 @@
 
 #include "engine/parallel.hpp"
 #include "engine/solver/boundary/mirror_planes.hpp"
+#include "engine/solver/boundary/free_edge.hpp"
 #include "engine/solver/boundary/normals.hpp"
 #include "engine/solver/state.hpp"
 #include "neighbor/neighbor_search.hpp"
@@ -25,7 +26,15 @@ struct NeighborLists {
   /// n = -sum_J V_J grad_I W_IJ / |.| (they point out of the body).
   static void build(SolverState<Dim>& state) {
     search(state);
+    compute_normals(state);
+  }
+
+  /// BoundaryNormals::compute, and after the first build's surface decision the static
+  /// geometry of the free corners and edges (FreeEdge::classify).
+  static void compute_normals(SolverState<Dim>& state) {
+    const bool first_build = !state.lists.surface_decided;
     BoundaryNormals<Dim>::compute(state);
+    if (first_build) FreeEdge<Dim>::classify(state);
   }
 
   /// The searches of build, with radius state.list_radius(): both half-step lists
@@ -93,7 +102,7 @@ struct NeighborLists {
   /// otherwise the lists are rebuilt.
   static void update_after_move(SolverState<Dim>& state, double dt) {
     if (state.reference_kernel() || (state.skin_distance() > 0.0 && !outdated(state, dt))) {
-      BoundaryNormals<Dim>::compute(state);
+      compute_normals(state);
     } else {
       rebuild(state);
     }

@@ -36,6 +36,13 @@ struct BoundaryParticles {
   std::vector<std::uint32_t> particle;   ///< real index of the slot
   std::vector<Vec> profile;              ///< BoundaryCondition::profile(x0)
   std::vector<char> on_surface;          ///< decided at the first build of the lists
+  /// Decided with on_surface, in the initial configuration (FreeEdge::classify): 1 where
+  /// the particle is extreme along every axis among its neighbours (a box's corner in 2D,
+  /// its vertex in 3D; FreeEdge::free_corner adds the neighbours' conditions at t)
+  std::vector<char> box_corner;
+  /// Likewise: the axis of the convex axis-parallel edge the particle lies on with its
+  /// normal between the faces (3D, FreeEdge::uniaxial_edge_axis), else -1
+  std::vector<std::int8_t> edge_axis;
   std::vector<Vec> normal;               ///< outward unit normal (boundary/normals.hpp)
   std::vector<StressVector<Dim>> stress;  ///< sigma^n
   std::vector<Vec> velocity;             ///< v^n
@@ -78,7 +85,7 @@ struct BoundaryParticles {
 
   template <class F>
   void for_each_field(F&& f) {
-    f(particle), f(profile), f(on_surface), f(normal), f(stress), f(velocity), f(density);
+    f(particle), f(profile), f(on_surface), f(box_corner), f(edge_axis), f(normal), f(stress), f(velocity), f(density);
     f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
     f(half_velocity), f(normal_moment), f(gradient_sum), f(full_rank_gradient), f(half_span), f(extra_plane), f(extra_normal);
     f(face_area);
@@ -97,6 +104,8 @@ struct BoundaryParticles {
     StressGradient zero_gradient;
     for (auto& g : zero_gradient) g.setZero();
     on_surface.assign(n, 1);
+    box_corner.assign(n, 0);
+    edge_axis.assign(n, -1);
     normal.assign(n, Vec::Zero());
     stress.assign(n, StressVector<Dim>{});
     velocity.assign(n, Vec::Zero());

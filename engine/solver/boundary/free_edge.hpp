@@ -22,16 +22,14 @@ struct FreeEdge {
 
   /// Whether real particle i is a free corner at time t: extreme along every axis among
   /// its neighbours within the support, in the initial configuration (the corner of a
-  /// box, in 2D; a vertex in 3D), with every boundary particle among those neighbours
-  /// under a traction condition whose traction is zero at t. A corner next to a held or
-  /// loaded face (the cantilever's clamp and tip) is not one. Used in 2D and, for the
-  /// zero stress of a free vertex, in 3D (characteristics.hpp, surface_extrapolation.hpp).
+  /// box, in 2D; a vertex in 3D: BoundaryParticles::box_corner, decided at the first
+  /// build), with every boundary particle among its neighbours within the support under a
+  /// traction condition whose traction is zero at t. A corner next to a held or loaded
+  /// face (the cantilever's clamp and tip) is not one. Used in 2D and, for the zero
+  /// stress of a free vertex, in 3D (characteristics.hpp).
   static bool free_corner(const SolverState<Dim>& state, std::uint32_t i, double t) {
-    // The geometry first (the neighbours' conditions are evaluated for corners only: in
-    // 3D every free surface particle asks, and the conditions cost 1.7 % of the step).
-    const Sides sides = neighbour_sides(state, i, [](std::uint32_t) {});
-    for (int d = 0; d < Dim; ++d)
-      if (sides.below[d] == sides.above[d]) return false;
+    const std::int32_t b = state.boundary.slot[i];
+    if (b < 0 || !state.boundary.box_corner[static_cast<std::size_t>(b)]) return false;
     const PointsView<Dim> real_points = points_of<Dim>(state.real);
     for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
       const std::int32_t bj = state.boundary.slot[j];
@@ -44,25 +42,45 @@ struct FreeEdge {
     return true;
   }
 
+  /// The static geometry of the free corners and edges, decided once at the first build
+  /// of the lists in the initial configuration (as BoundaryNormals decides on_surface):
+  /// BoundaryParticles::box_corner and edge_axis. Before, both were decided again at
+  /// every step for every surface particle (the edges' initial normal: a kernel sum and
+  /// an eigen-solve each), and the support was the current one, so that an edge could
+  /// leave the treatment when a neighbour left the support. Since 2026-11-29 the 3D step
+  /// costs 1.0036 of its baseline instead of 1.0129 (tools/check_timing.py).
+  static void classify(SolverState<Dim>& state) {
+    for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
+      const std::uint32_t i = state.boundary.particle[b];
+      state.boundary.box_corner[b] = 0;
+      state.boundary.edge_axis[b] = -1;
+      if (!state.boundary.on_surface[b]) continue;
+      const Sides sides = neighbour_sides(state, i);
+      bool corner = Dim >= 2;
+      for (int d = 0; d < Dim; ++d) corner = corner && sides.below[d] != sides.above[d];
+      state.boundary.box_corner[b] = corner ? 1 : 0;
+      state.boundary.edge_axis[b] = static_cast<std::int8_t>(uniaxial_edge_axis(state, i, sides));
+    }
+  }
+
   /// Whether some neighbour of real particle i within the support lies below / above it
-  /// along each axis, in the initial configuration; `visit` sees each such neighbour.
+  /// along each axis, all in the initial configuration.
   struct Sides {
     std::array<bool, Dim> below{}, above{};
   };
-  template <class Visit>
-  static Sides neighbour_sides(const SolverState<Dim>& state, std::uint32_t i, Visit&& visit) {
-    const PointsView<Dim> real_points = points_of<Dim>(state.real);
+  static Sides neighbour_sides(const SolverState<Dim>& state, std::uint32_t i) {
+    const PointsView<Dim> initial = initial_points_of<Dim>(state.real);
+    const double radius = state.support_radius();
     const Vec x0 = state.initial_position_of(i);
     const double tol = 1e-6 * state.initial_spacing;
     Sides sides;
     for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
-      if (!state.within_support(real_points, i, real_points, j)) continue;
+      if (squared_distance<Dim>(initial, i, initial, j) > radius * radius) continue;
       const Vec offset = state.initial_position_of(j) - x0;
       for (int d = 0; d < Dim; ++d) {
         sides.below[d] = sides.below[d] || offset[d] < -tol;
         sides.above[d] = sides.above[d] || offset[d] > tol;
       }
-      visit(j);
     }
     return sides;
   }
@@ -78,7 +96,7 @@ struct FreeEdge {
       const std::uint32_t i = state.boundary.particle[b];
       const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
       if (state.boundary.on_surface[b] && condition.kind == BoundaryCondition<Dim>::Kind::traction &&
-          uniaxial_edge_axis(state, i) >= 0)
+          state.boundary.edge_axis[b] >= 0)
         edge.push_back(i);
     }
     return edge;
@@ -91,8 +109,7 @@ struct FreeEdge {
   /// extreme in two directions: the edge of a box whose faces are coordinate planes.
   /// A face particle is extreme on one axis, a corner on three, a particle on an oblique
   /// or curved surface, or on a re-entrant edge, on one or none.
-  static int free_edge_axis(const SolverState<Dim>& state, std::uint32_t i) {
-    const Sides sides = neighbour_sides(state, i, [](std::uint32_t) {});
+  static int free_edge_axis(const Sides& sides) {
     const auto& below = sides.below;
     const auto& above = sides.above;
     int extreme = 0, along = -1;
@@ -113,16 +130,16 @@ struct FreeEdge {
   /// and a cube turned 45 degrees about z had its z-edges' normals on an axis, so the edges
   /// left and rejoined the treatment as the body turned (the rotating cube with the option
   /// on lost 39 % of its angular momentum in a turn at alpha 1.2, 2026-11-27).
-  static int uniaxial_edge_axis(const SolverState<Dim>& state, std::uint32_t i) {
+  static int uniaxial_edge_axis(const SolverState<Dim>& state, std::uint32_t i, const Sides& sides) {
     if constexpr (Dim == 3) {
-      const int along = free_edge_axis(state, i);
+      const int along = free_edge_axis(sides);
       if (along < 0) return -1;
       const Vec n = initial_normal(state, i);
       if (std::abs(n[along]) > 0.3 || std::abs(n[(along + 1) % 3]) < 0.3 || std::abs(n[(along + 2) % 3]) < 0.3)
         return -1;
       return along;
     } else {
-      (void)state, (void)i;
+      (void)state, (void)i, (void)sides;
       return -1;
     }
   }
@@ -161,7 +178,7 @@ struct FreeEdge {
                               const Mat& frame, const Mat& velocity_dt, double dt, Mat& stress_global) {
     constexpr double none = std::numeric_limits<double>::quiet_NaN();
     if constexpr (Dim == 3) {
-      const int along = uniaxial_edge_axis(state, i);
+      const int along = state.boundary.edge_axis[b];
       if (along < 0) return none;
       const PointsView<Dim> real_points = points_of<Dim>(state.real);
       const Vec x0 = state.initial_position_of(i);
