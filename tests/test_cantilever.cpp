@@ -74,17 +74,17 @@ TEST(CantileverExact, TipDeflectionMatchesTheReference) {
 
 // The converged options are the method's defaults: the shipped cantilevers leave them
 // to it (the wall clamp, the hourglass stiffness 0.05, the surface extrapolation and the
-// surface filter 0.02 resolved by the builder and the solver alike), and the 3D one sets
-// the free edges' uniaxial stress (refused in 2D).
+// surface filter 0.02 resolved by the builder and the solver alike; in 3D the free
+// edges' uniaxial stress, refused in 2D, and off for a plastic material).
 TEST(Cantilever, DefaultsAreTheConvergedOptions) {
   const CaseFile plane = load_case(testing_cases::shipped_case("cantilever_2d.toml"), {"geometry.spacing=0.05"});
   EXPECT_EQ(plane.velocity_wall, CaseFile::VelocityWall::automatic);
   EXPECT_EQ(plane.hourglass_stiffness, kAutomaticOption);
   EXPECT_EQ(plane.surface_extrapolation, Toggle::automatic);
-  EXPECT_FALSE(plane.free_edge_uniaxial);
+  EXPECT_EQ(plane.free_edge_uniaxial, Toggle::automatic);
   const CaseFile solid = load_case(testing_cases::shipped_case("cantilever_3d.toml"), {"geometry.spacing=0.05"});
   EXPECT_EQ(solid.hourglass_stiffness, kAutomaticOption);
-  EXPECT_TRUE(solid.free_edge_uniaxial);
+  EXPECT_EQ(solid.free_edge_uniaxial, Toggle::automatic);
   BuiltCase<2> model = build_case<2>(plane);
   BuiltCase<2> copy = build_case<2>(plane);
   for (const SolverSettings<2>& s :
@@ -93,9 +93,12 @@ TEST(Cantilever, DefaultsAreTheConvergedOptions) {
     EXPECT_EQ(s.hourglass_stiffness, 0.05);
     EXPECT_EQ(s.hourglass_coefficient, 0.02);
     EXPECT_EQ(s.surface_extrapolation, Toggle::on);
+    EXPECT_EQ(s.free_edge_uniaxial, Toggle::off);
   }
   const SolverSettings<3> solid_settings = resolve_automatic_options(build_case<3>(solid).settings, false);
-  EXPECT_TRUE(solid_settings.free_edge_uniaxial);
+  EXPECT_EQ(solid_settings.free_edge_uniaxial, Toggle::on);
+  EXPECT_EQ(resolve_automatic_options(build_case<3>(solid).settings, true).free_edge_uniaxial, Toggle::off);
+  EXPECT_EQ(resolved_method_options(solid).free_edge_uniaxial, true);
   EXPECT_EQ(solid_settings.velocity_wall, SolverSettings<3>::VelocityWall::wall_gradient);
   EXPECT_EQ(solid_settings.hourglass_stiffness, 0.05);
   EXPECT_EQ(solid_settings.surface_extrapolation, Toggle::on);
@@ -108,7 +111,7 @@ TEST(Cantilever, DefaultsAreTheConvergedOptions) {
     EXPECT_NE(e.messages().front().find("method.free_edge_uniaxial"), std::string::npos) << e.what();
   }
   SolverSettings<2> with_edges = model.settings;
-  with_edges.free_edge_uniaxial = true;
+  with_edges.free_edge_uniaxial = Toggle::on;
   EXPECT_THROW(TaylorSph<2>(model.real, model.virtual_particles, *model.material, with_edges, model.conditions),
                std::invalid_argument);
 }
@@ -168,7 +171,7 @@ TEST(Cantilever, FreeEdgesOfAnAxisAlignedBoxOnly) {
 // 81 kPa at this point, and the cube lost 88 % of its spin in a turn (2026-11-29).
 TEST(Cantilever, FreeEdgesOfASpinningCubeKeepTheirStressSmall) {
   testing_cases::SteppedCase<3> cube("rotation_3d.toml",
-                                     {"geometry.spacing=0.2", "method.alpha=1.2", "method.free_edge_uniaxial=true"}, 0);
+                                     {"geometry.spacing=0.2", "method.alpha=1.2"}, 0);
   TaylorSph<3>& solver = cube.solver;
   const std::vector<std::uint32_t> edge = solver.free_edge_particles();
   ASSERT_EQ(edge.size(), 12u * 4u);

@@ -112,12 +112,12 @@ TEST_F(CaseFileTest, ShippedCasesResolveToTheSeedSettings) {
   EXPECT_EQ(c.boundary_particles[2].second, 11u);  // the clamp: the whole face x = 0
   EXPECT_EQ(c.boundary_particles[1].second, 11u);  // the tip face, corners included
   EXPECT_EQ(c.boundary_particles[0].second, 198u); // top and bottom, less the four corners
-  // The 3D case leaves the converged options to the defaults and sets the free edges.
+  // The 3D case leaves the converged options, the free edges among them, to the defaults.
   const CaseFile solid = load_case((kCases / "cantilever_3d.toml").string());
   EXPECT_EQ(solid.velocity_wall, CaseFile::VelocityWall::automatic);
   EXPECT_EQ(solid.hourglass_stiffness, kAutomaticOption);
   EXPECT_EQ(solid.surface_extrapolation, Toggle::automatic);
-  EXPECT_TRUE(solid.free_edge_uniaxial);
+  EXPECT_EQ(solid.free_edge_uniaxial, Toggle::automatic);
 }
 
 // [solver]: neighbor_search "auto" by default, the two searches by name, anything else

@@ -278,7 +278,12 @@ TEST(MirrorPlanes, WhatTheGhostsCannotModelRefused) {
   expect_refused(elastic, {}, "takes the surface treatments by default: set method.hourglass = 0");
   EXPECT_NO_THROW(run_text(elastic, "elastic_quarter",
                            {"method.hourglass=0", "method.velocity_wall=\"characteristics\"",
-                            "method.surface_extrapolation=false", "time.end=1e-4"}));
+                            "method.surface_extrapolation=false", "method.free_edge_uniaxial=false",
+                            "time.end=1e-4"}));
+  expect_refused(elastic,
+                 {"method.hourglass=0", "method.velocity_wall=\"characteristics\"", "method.surface_extrapolation=false"},
+                 "by default: set method.hourglass = 0, method.velocity_wall = \"characteristics\" and "
+                 "method.surface_extrapolation = false, and in 3D method.free_edge_uniaxial = false");
   try {
     run_text(elastic, "refused",
              {"method.hourglass=0.02", "method.velocity_wall=\"characteristics\"", "method.surface_extrapolation=false"});

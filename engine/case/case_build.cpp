@@ -187,6 +187,7 @@ void set_automatic_options(const CaseFile& c, SolverSettings<Dim>& settings) {
                            : c.velocity_wall == CaseFile::VelocityWall::characteristics ? Wall::characteristics
                                                                                         : Wall::automatic;
   settings.surface_extrapolation = c.surface_extrapolation;
+  settings.free_edge_uniaxial = c.free_edge_uniaxial;
 }
 
 template <int Dim>
@@ -196,7 +197,7 @@ ResolvedMethodOptions resolved_method_options_in(const CaseFile& c) {
   settings = resolve_automatic_options(settings, c.plasticity.model != "elastic");  // Material::plastic()
   return {settings.hourglass_coefficient, settings.hourglass_stiffness,
           settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient,
-          settings.surface_extrapolation == Toggle::on};
+          settings.surface_extrapolation == Toggle::on, settings.free_edge_uniaxial == Toggle::on};
 }
 
 }  // namespace
@@ -414,7 +415,6 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.kernel_configuration = c.kernel_configuration == "reference"
                                         ? SolverSettings<Dim>::KernelConfiguration::reference
                                         : SolverSettings<Dim>::KernelConfiguration::current;
-  b.settings.free_edge_uniaxial = c.free_edge_uniaxial;
   b.settings.neighbor_search = c.neighbor_search;
   b.settings.transpose_lists = c.transpose_lists;
   b.settings.neighbor_skin = c.neighbor_skin;

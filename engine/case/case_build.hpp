@@ -49,6 +49,7 @@ struct ResolvedMethodOptions {
   double hourglass_stiffness = 0.0;
   bool wall_gradient = false;
   bool surface_extrapolation = false;
+  bool free_edge_uniaxial = false;
 };
 ResolvedMethodOptions resolved_method_options(const CaseFile& c);
 

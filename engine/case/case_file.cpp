@@ -320,8 +320,9 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
         m.text("deficient_stencils", false, {"keep", "widen", "widen_motion", "complete"}).value_or("keep");
     c.kernel_configuration =
         m.text("kernel_configuration", false, {"current", "reference"}).value_or("current");
-    c.free_edge_uniaxial = m.boolean("free_edge_uniaxial").value_or(false);
-    if (c.free_edge_uniaxial && c.dimension != 3)
+    const std::optional<bool> free_edges = m.boolean("free_edge_uniaxial");
+    c.free_edge_uniaxial = !free_edges ? Toggle::automatic : *free_edges ? Toggle::on : Toggle::off;
+    if (c.free_edge_uniaxial == Toggle::on && c.dimension != 3)
       context.invalid(m.get("free_edge_uniaxial", false, ""), m.path("free_edge_uniaxial"),
                       "applies to dimension = 3 only (the edges between two free faces)");
     c.body_force = m.numbers("body_force", false, dim, "m/s^2, one per axis")

@@ -135,7 +135,7 @@ struct CaseFile {
   bool conservative_momentum = false;    ///< SolverSettings::conservative_momentum
   std::string deficient_stencils = "keep";  ///< SolverSettings::deficient_stencils: keep, widen, widen_motion, complete
   std::string kernel_configuration = "current";  ///< SolverSettings::kernel_configuration: current, reference
-  bool free_edge_uniaxial = false;     ///< SolverSettings::free_edge_uniaxial (3D only)
+  Toggle free_edge_uniaxial = Toggle::automatic;  ///< SolverSettings::free_edge_uniaxial (3D only)
   std::vector<double> body_force;
 
   // [solver]

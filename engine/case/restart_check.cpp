@@ -139,7 +139,7 @@ std::string physics_record(const CaseFile& c) {
   r.add("method.conservative_momentum", c.conservative_momentum);
   r.add("method.deficient_stencils", c.deficient_stencils);
   r.add("method.kernel_configuration", c.kernel_configuration);
-  r.add("method.free_edge_uniaxial", c.free_edge_uniaxial);
+  r.add("method.free_edge_uniaxial", options.free_edge_uniaxial);
   r.add("method.body_force", c.body_force);
   r.add_text("solver.neighbor_search", std::string(to_string(c.neighbor_search)));
   r.add("solver.transpose_lists", c.transpose_lists);

@@ -84,8 +84,9 @@ struct SolverSettings {
   /// surface_extrapolation.hpp). automatic: resolve_automatic_options (on in 2D and 3D).
   Toggle surface_extrapolation = Toggle::automatic;
   /// 3D only: a zero-traction particle on a convex axis-parallel edge takes the uniaxial
-  /// stress along the edge (boundary/free_edge.hpp). Off by default.
-  bool free_edge_uniaxial = false;
+  /// stress along the edge (boundary/free_edge.hpp). automatic: resolve_automatic_options
+  /// (on for an elastic material in 3D).
+  Toggle free_edge_uniaxial = Toggle::automatic;
   /// Updated Lagrangian: the real particles move with the velocity the stress sees, the
   /// virtual half-step velocity interpolated at the particle (x^{n+1} = x^n + dt
   /// v^{n+1/2}, midpoint rule; solver/kinematics.hpp), instead of the trapezoid of their
@@ -163,6 +164,7 @@ struct SolverSettings {
     s.hourglass_stiffness = 0.0;
     s.velocity_wall = VelocityWall::characteristics;
     s.surface_extrapolation = Toggle::off;
+    s.free_edge_uniaxial = Toggle::off;
     return s;
   }
 };
@@ -181,7 +183,7 @@ constexpr bool takes_elastic_treatments(bool plastic) {
 /// summary.json reports the resolved values). One rule: **an elastic material in 2D or
 /// 3D takes the treatments with which the 2D cantilever converges to rest at every
 /// resolution** (surface filter 0.02, clamp by the wall gradient, hourglass stiffness
-/// 0.05, surface extrapolation; they pass the validation suite's elastic cases as each
+/// 0.05, surface extrapolation; in 3D the free edges' uniaxial stress; they pass the validation suite's elastic cases as each
 /// case's own keys did: docs/validation.md, "The defaults"); **everything else takes
 /// none** (each option off):
 ///  * 1D has no tangential direction and no mode that the virtual set's gradients do not
@@ -204,6 +206,12 @@ SolverSettings<Dim> resolve_automatic_options(SolverSettings<Dim> settings, bool
                                         : SolverSettings<Dim>::VelocityWall::characteristics;
   if (settings.surface_extrapolation == Toggle::automatic)
     settings.surface_extrapolation = treatments ? Toggle::on : Toggle::off;
+  // The free edges' uniaxial stress, 3D only (there are no edges in 2D): the 3D
+  // cantilever converges with it (without it the edges creep, and the beam in updated
+  // Lagrangian diverges); the rotating cube keeps its spin with it since 2026-11-29
+  // (docs/notes/2026-11-29-free-edges-in-rotation.md).
+  if (settings.free_edge_uniaxial == Toggle::automatic)
+    settings.free_edge_uniaxial = treatments && Dim == 3 ? Toggle::on : Toggle::off;
   return settings;
 }
 

@@ -255,11 +255,11 @@ struct SolverState {
         settings(std::move(run_settings)),
         boundaries(std::move(conditions)) {
     // Which surface treatments the run takes by default (the mirror planes' message).
-    automatic_surface_treatments_ =
-        takes_elastic_treatments<Dim>(material.plastic()) &&
-        (settings.hourglass_coefficient == kAutomaticOption ||
-         settings.velocity_wall == SolverSettings<Dim>::VelocityWall::automatic ||
-         settings.surface_extrapolation == Toggle::automatic);
+    if (takes_elastic_treatments<Dim>(material.plastic()))
+      automatic_surface_treatments_ = {settings.surface_extrapolation == Toggle::automatic,
+                                       settings.hourglass_coefficient == kAutomaticOption,
+                                       settings.velocity_wall == SolverSettings<Dim>::VelocityWall::automatic,
+                                       Dim == 3 && settings.free_edge_uniaxial == Toggle::automatic};
     settings = resolve_automatic_options(settings, material.plastic());
     check_settings();
     real.check_field_sizes("solver: the real set");
@@ -362,15 +362,19 @@ struct SolverState {
     if (!mirror.active()) return;
     if (mirror.planes.size() > 8) throw std::invalid_argument("solver: at most 8 mirror planes");
     // The surface treatments (an elastic material's automatic defaults), then the others.
-    const char* surface_treatment =
-        settings.surface_extrapolation == Toggle::on ? "method.surface_extrapolation"
-        : settings.hourglass_coefficient > 0         ? "method.hourglass"
-        : settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient
-            ? "method.velocity_wall = \"wall_gradient\""
-            : nullptr;
+    const std::array<bool, 4> treatment_on = {
+        settings.surface_extrapolation == Toggle::on, settings.hourglass_coefficient > 0,
+        settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient,
+        settings.free_edge_uniaxial == Toggle::on};
+    const std::array<const char*, 4> treatment_key = {"method.surface_extrapolation", "method.hourglass",
+                                                      "method.velocity_wall = \"wall_gradient\"",
+                                                      "method.free_edge_uniaxial"};
+    const char* surface_treatment = nullptr;
+    bool treatment_automatic = false;
+    for (std::size_t k = 0; k < treatment_on.size() && !surface_treatment; ++k)
+      if (treatment_on[k]) surface_treatment = treatment_key[k], treatment_automatic = automatic_surface_treatments_[k];
     const char* option = settings.conservative_momentum ? "method.conservative_momentum"
                          : surface_treatment            ? surface_treatment
-                         : settings.free_edge_uniaxial  ? "method.free_edge_uniaxial"
                          : settings.deficient_stencils != SolverSettings<Dim>::DeficientStencils::keep
                              ? "method.deficient_stencils other than \"keep\""
                              : nullptr;
@@ -379,10 +383,12 @@ struct SolverState {
           std::string("solver: ") + option +
           " is not available with mirror planes yet (it reads per-boundary-particle state that the ghosts do not "
           "carry): turn it off, or model the whole body" +
-          (option == surface_treatment && automatic_surface_treatments_
+          (option == surface_treatment && treatment_automatic
                ? std::string(" (an elastic material in 2D and 3D takes the surface treatments by default: set "
                              "method.hourglass = 0, method.velocity_wall = \"characteristics\" and "
-                             "method.surface_extrapolation = false; the whole body's default also has "
+                             "method.surface_extrapolation = false" +
+                             std::string(Dim == 3 ? ", and in 3D method.free_edge_uniaxial = false" : "") +
+                             "; the whole body's default also has "
                              "method.hourglass_stiffness = 0.05, which mirror planes keep)")
                : std::string()));
     if (find_driven_condition() >= 0)
@@ -583,10 +589,11 @@ struct SolverState {
   }
 
  private:
-  /// Whether any of the surface treatments that mirror planes refuse (the filter, the
-  /// wall gradient, the extrapolation) came from the automatic defaults
-  /// (resolve_automatic_options): the refusal of one of them then names the keys to set.
-  bool automatic_surface_treatments_ = false;
+  /// Which of the surface treatments that mirror planes refuse (the extrapolation, the
+  /// filter, the wall gradient, the free edges; check_mirror_planes's order) came from
+  /// the automatic defaults (resolve_automatic_options): the refusal of one of them then
+  /// names the keys to set.
+  std::array<bool, 4> automatic_surface_treatments_{};
 
   void check_settings() const {
     if (!(settings.smoothing_length > 0.0) || !std::isfinite(settings.smoothing_length))
@@ -608,7 +615,7 @@ struct SolverState {
                                   " must lie in [0, 1] (a fraction of the support radius 2h)");
     if (real.size() == 0 || virtual_.size() == 0)
       throw std::invalid_argument("solver: needs at least one real and one virtual particle");
-    if (settings.free_edge_uniaxial && Dim != 3)
+    if (settings.free_edge_uniaxial == Toggle::on && Dim != 3)
       throw std::invalid_argument("solver: free_edge_uniaxial applies to the edges of 3D bodies only (dimension " +
                                   std::to_string(Dim) + ")");
   }

@@ -278,7 +278,7 @@ struct CharacteristicBoundary {
       // Back to the global frame.
       Mat stress_global = frame * stress1 * frame.transpose();
       double volume_rate = volumetric;
-      if (state.settings.free_edge_uniaxial && !velocity_given && prescribed.squaredNorm() == 0.0) {
+      if (state.settings.free_edge_uniaxial == Toggle::on && !velocity_given && prescribed.squaredNorm() == 0.0) {
         const double edge_rate = FreeEdge<Dim>::make_uniaxial(state, b, i, frame, velocity_dt, dt, stress_global);
         if (!std::isnan(edge_rate)) volume_rate = FreeEdge<Dim>::uniaxial_volume_rate(state, edge_rate);
       }

@@ -91,7 +91,7 @@ struct FreeEdge {
   /// with the option off.
   static std::vector<std::uint32_t> particles(const SolverState<Dim>& state) {
     std::vector<std::uint32_t> edge;
-    if (!state.settings.free_edge_uniaxial) return edge;
+    if (state.settings.free_edge_uniaxial != Toggle::on) return edge;
     for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
       const std::uint32_t i = state.boundary.particle[b];
       const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
