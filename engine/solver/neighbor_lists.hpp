@@ -5,8 +5,8 @@
 #pragma once
 
 #include "engine/parallel.hpp"
-#include "engine/solver/boundary/mirror_planes.hpp"
 #include "engine/solver/boundary/free_edge.hpp"
+#include "engine/solver/boundary/mirror_planes.hpp"
 #include "engine/solver/boundary/normals.hpp"
 #include "engine/solver/state.hpp"
 #include "neighbor/neighbor_search.hpp"

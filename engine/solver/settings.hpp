@@ -183,8 +183,9 @@ constexpr bool takes_elastic_treatments(bool plastic) {
 /// summary.json reports the resolved values). One rule: **an elastic material in 2D or
 /// 3D takes the treatments with which the 2D cantilever converges to rest at every
 /// resolution** (surface filter 0.02, clamp by the wall gradient, hourglass stiffness
-/// 0.05, surface extrapolation; in 3D the free edges' uniaxial stress; they pass the validation suite's elastic cases as each
-/// case's own keys did: docs/validation.md, "The defaults"); **everything else takes
+/// 0.05, surface extrapolation; in 3D the free edges' uniaxial stress; they pass the
+/// validation suite's elastic cases as each case's own keys did: docs/validation.md,
+/// "The defaults"); **everything else takes
 /// none** (each option off):
 ///  * 1D has no tangential direction and no mode that the virtual set's gradients do not
 ///    see; the characteristic relations are exact there (Table 1 at alpha 0.6 to

@@ -40,8 +40,9 @@ struct BoundaryParticles {
   /// the particle is extreme along every axis among its neighbours (a box's corner in 2D,
   /// its vertex in 3D; FreeEdge::free_corner adds the neighbours' conditions at t)
   std::vector<char> box_corner;
-  /// Likewise: the axis of the convex axis-parallel edge the particle lies on with its
-  /// normal between the faces (3D, FreeEdge::uniaxial_edge_axis), else -1
+  /// Likewise: for a surface particle of a traction condition, the axis of the convex
+  /// axis-parallel edge it lies on with its normal between the faces (3D,
+  /// FreeEdge::uniaxial_edge_axis), else -1
   std::vector<std::int8_t> edge_axis;
   std::vector<Vec> normal;               ///< outward unit normal (boundary/normals.hpp)
   std::vector<StressVector<Dim>> stress;  ///< sigma^n

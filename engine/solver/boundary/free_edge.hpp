@@ -1,7 +1,8 @@
 // SolverSettings::free_edge_uniaxial (3D): the uniaxial stress of a zero-traction
 // particle on a convex axis-parallel edge, instead of the characteristic relations on
 // its diagonal kernel normal, which leave the shear sigma_xy = -sigma_xz free; and the
-// free corners of 2D bodies (free_corner), whose stress is zero.
+// free corners of 2D bodies and free vertices of 3D ones (free_corner), whose stress is
+// zero. Which particles these are is decided once, at the first build (classify).
 #pragma once
 
 #include "engine/solver/boundary/normals.hpp"
@@ -59,7 +60,9 @@ struct FreeEdge {
       bool corner = Dim >= 2;
       for (int d = 0; d < Dim; ++d) corner = corner && sides.below[d] != sides.above[d];
       state.boundary.box_corner[b] = corner ? 1 : 0;
-      state.boundary.edge_axis[b] = static_cast<std::int8_t>(uniaxial_edge_axis(state, i, sides));
+      const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
+      if (condition.kind == BoundaryCondition<Dim>::Kind::traction)
+        state.boundary.edge_axis[b] = static_cast<std::int8_t>(uniaxial_edge_axis(state, i, sides));
     }
   }
 
@@ -69,13 +72,12 @@ struct FreeEdge {
     std::array<bool, Dim> below{}, above{};
   };
   static Sides neighbour_sides(const SolverState<Dim>& state, std::uint32_t i) {
-    const PointsView<Dim> initial = initial_points_of<Dim>(state.real);
-    const double radius = state.support_radius();
+    const auto within = BoundaryNormals<Dim>::within_at_start(state, i);
     const Vec x0 = state.initial_position_of(i);
     const double tol = 1e-6 * state.initial_spacing;
     Sides sides;
     for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
-      if (squared_distance<Dim>(initial, i, initial, j) > radius * radius) continue;
+      if (!within(j)) continue;
       const Vec offset = state.initial_position_of(j) - x0;
       for (int d = 0; d < Dim; ++d) {
         sides.below[d] = sides.below[d] || offset[d] < -tol;
@@ -92,13 +94,8 @@ struct FreeEdge {
   static std::vector<std::uint32_t> particles(const SolverState<Dim>& state) {
     std::vector<std::uint32_t> edge;
     if (state.settings.free_edge_uniaxial != Toggle::on) return edge;
-    for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
-      const std::uint32_t i = state.boundary.particle[b];
-      const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
-      if (state.boundary.on_surface[b] && condition.kind == BoundaryCondition<Dim>::Kind::traction &&
-          state.boundary.edge_axis[b] >= 0)
-        edge.push_back(i);
-    }
+    for (std::size_t b = 0; b < state.boundary.particle.size(); ++b)
+      if (state.boundary.edge_axis[b] >= 0) edge.push_back(state.boundary.particle[b]);
     return edge;
   }
 
@@ -151,14 +148,10 @@ struct FreeEdge {
   static Vec initial_normal(const SolverState<Dim>& state, std::uint32_t i) {
     Vec normal = Vec::Unit(0);
     visit_kernel<Dim>(state.settings.kernel, [&](const auto& kernel) {
-      const PointsView<Dim> initial = initial_points_of<Dim>(state.real);
-      const double radius = state.support_radius();
-      const double density0 = state.material.elastic().reference_density();
-      const auto within = [&](std::uint32_t j) { return squared_distance<Dim>(initial, i, initial, j) <= radius * radius; };
-      const Vec sum = BoundaryNormals<Dim>::kernel_gradient_sum(
-          state, kernel, initial, i, [&](std::uint32_t j) { return state.real.mass[j] / density0; }, within);
+      const Vec sum = BoundaryNormals<Dim>::initial_kernel_gradient_sum(state, kernel, i);
       if (sum.norm() > 0.0) normal = -sum / sum.norm();
-      normal = BoundaryNormals<Dim>::face_normal(state, initial, i, normal, state.real.boundary[i], within);
+      normal = BoundaryNormals<Dim>::face_normal(state, initial_points_of<Dim>(state.real), i, normal,
+                                                 state.real.boundary[i], BoundaryNormals<Dim>::within_at_start(state, i));
     });
     return normal;
   }

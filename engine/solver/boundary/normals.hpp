@@ -136,18 +136,36 @@ struct BoundaryNormals {
     return sum;
   }
 
+  /// The pairs (i, j) of i's real row within the support 2h in the initial configuration
+  /// (the rows hold them at the start of a run, and with the reference kernel): what the
+  /// decisions made once at the first build read (surface_at_start, FreeEdge::classify).
+  static auto within_at_start(const SolverState<Dim>& state, std::uint32_t i) {
+    const PointsView<Dim> initial = initial_points_of<Dim>(state.real);
+    const double radius = state.support_radius();
+    return [initial, radius, i](std::uint32_t j) {
+      return squared_distance<Dim>(initial, i, initial, j) <= radius * radius;
+    };
+  }
+
+  /// kernel_gradient_sum in the initial configuration: at X, with the initial volumes
+  /// m / rho0, over the pairs within_at_start.
+  template <class Kernel>
+  static Vec initial_kernel_gradient_sum(const SolverState<Dim>& state, const Kernel& kernel, std::uint32_t i) {
+    const double density0 = state.material.elastic().reference_density();
+    return kernel_gradient_sum(
+        state, kernel, initial_points_of<Dim>(state.real), i,
+        [&](std::uint32_t j) { return state.real.mass[j] / density0; }, within_at_start(state, i));
+  }
+
   /// Whether real particle i lies on a surface in the initial configuration: its kernel
-  /// normal there (initial volumes), and no neighbour within 60 degrees of it (the pairs of its row within
-  /// 2h at X; the rows hold them at the start of a run, and with the reference kernel).
+  /// normal there (initial_kernel_gradient_sum), and no neighbour within 60 degrees of it
+  /// (the pairs within_at_start).
   template <class Kernel>
   static bool surface_at_start(const SolverState<Dim>& state, const Kernel& kernel, std::uint32_t i) {
     const PointsView<Dim> initial = initial_points_of<Dim>(state.real);
-    const double radius = state.support_radius();
-    const double density0 = state.material.elastic().reference_density();  // the initial volumes m / rho0
     const Vec x0 = initial.point(i);
-    const auto within = [&](std::uint32_t j) { return squared_distance<Dim>(initial, i, initial, j) <= radius * radius; };
-    const Vec sum = kernel_gradient_sum(
-        state, kernel, initial, i, [&](std::uint32_t j) { return state.real.mass[j] / density0; }, within);
+    const auto within = within_at_start(state, i);
+    const Vec sum = initial_kernel_gradient_sum(state, kernel, i);
     const double norm = sum.norm();
     if (!(norm > 0.0)) return false;
     const Vec normal = -sum / norm;
