@@ -5,7 +5,7 @@
 // evaluates and about which the motion x^{n+1} = x^n + dt v^{n+1/2} turns, the
 // angular momentum is kept to the motion's small residual. Taken at x^n (the former
 // place) the block spun up by omega^2 dt^2 / 2 per step; the default corrected
-// divergence gains 2 % per turn here.
+// divergence gains 2 % per turn here (0.7 % since 2026-11-29).
 #include "engine/case/case_build.hpp"
 #include "engine/case/case_file.hpp"
 
@@ -56,8 +56,11 @@ TEST(RotationMomentum, ConservativeMomentumKeepsTheSpin) {
   EXPECT_LT(momentum_change(true), 5e-4);
 }
 
-TEST(RotationMomentum, DefaultDivergenceSpinsUp) {  // the known problem this option answers
-  EXPECT_GT(momentum_change(false), 2e-3);
+// The known problem this option answers. Measured 1.85e-3 (2026-11-29, since the free
+// faces' conditions hold on the normal at t_new and the full step rotates the particle's
+// own stress; 5.2e-3 before): still over the 1e-3 (per turn, here a quarter).
+TEST(RotationMomentum, DefaultDivergenceSpinsUp) {
+  EXPECT_GT(momentum_change(false), 1e-3);
 }
 
 }  // namespace

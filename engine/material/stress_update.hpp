@@ -11,7 +11,8 @@ namespace tsph {
 /// spin W) in, sigma^{n+1} out. `rate_stress` is the stress that the objective
 /// (Jaumann) terms W sigma - sigma W rotate: in the half step the interpolated stress
 /// itself, in the full step the particle's own midpoint stress sigma_r^n + dt/2 rate
-/// (full_step.hpp: the rotation of sigma_r^n to second order, which does no work). `objective`: the
+/// (full_step.hpp: the rotation of sigma_r^n to second order, which does no work; a
+/// particle that yielded in the last step: the interpolated stress). `objective`: the
 /// Jaumann terms are on (updated Lagrangian). `predictor`: the half step's update of a
 /// virtual particle (seed eq. 3), whose stress enters the full step only through dt
 /// (div sigma, W sigma - sigma W), so that O(dt^2) per step suffices: the plastic models
