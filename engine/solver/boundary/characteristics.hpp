@@ -10,8 +10,8 @@
 //    gradient, rather than at the neighbours and interpolated: the same order of
 //    accuracy, and no same-set neighbour lists in the bulk.
 //  * Boundary real particles take their state from the characteristic relations in
-//    the frame (n, t_k) of their computed outward normal (in updated Lagrangian carried
-//    to t_new by the step's deformation: condition_normal). With t_n = n.sigma.n,
+//    the frame (n, t_k) of their computed outward normal (on a traction condition in
+//    updated Lagrangian, carried to t_new by the step's deformation: condition_normal). With t_n = n.sigma.n,
 //    u_n = v.n, Z_p = rho c_p (and t_k = n.sigma.t_k, u_k = v.t_k, Z_s = rho c_s):
 //      d/dt (t_n - Z_p u_n) + c_p d/dn (t_n - Z_p u_n)
 //          = lambda div_t v_t - c_p div_t (sigma n)_t - Z_p b_n,
@@ -120,29 +120,40 @@ struct CharacteristicBoundary {
     return inward > 0.0 ? Vec(-m) : m;
   }
 
-  /// The outward normal that the conditions at t_new hold on. In updated Lagrangian the
-  /// normal at n (BoundaryParticles::normal, from the positions at n) carried over the
-  /// step by the deformation, n^{n+1} ~ F^-T n = (I - dt L^T) n normalised, with L the
-  /// half-step velocity gradient (virtual set, n+1/2). L^T n is the gradient of the
-  /// normal velocity v . n: its tangential part turns the normal, its normal part only
-  /// changes the length (so the one-sided normal derivative drops out). Before
-  /// (2026-11-29), the traction held on the normal at n, which lags a face turning at
-  /// omega by omega dt: in the twisting column that made energy (E at 1.1 s: 1.50 E0 at
-  /// CFL 0.9; 0.68 E0 now, as small strain's 0.66) and it spun the free rotating blocks
-  /// up at alpha 1.2 (2D: 2.5e-2 of L per turn, 4.2e-3 now;
-  /// docs/notes/2026-11-29-own-stress-rotation.md). The normal at n: in small strain,
-  /// and where the condition is not a traction (a velocity or a symmetry plane: the
-  /// plane stays, and the frame of a prescribed velocity does not matter) or the
-  /// particle also lies on a symmetry plane (its normal stays in that plane).
+  /// The outward normal that a traction condition at t_new holds on. In updated
+  /// Lagrangian the normal at n (BoundaryParticles::normal, from the positions at n)
+  /// carried over the step by the deformation, n^{n+1} ~ F^-T n = (I - dt L^T) n
+  /// normalised, with L the half-step velocity gradient (virtual set, n+1/2; where a
+  /// deficient row kept its span P, the real set's gradient at n in the missing
+  /// directions, as below). L^T n is the gradient of the normal velocity v . n: its
+  /// tangential part turns the normal, its normal part only changes the length (so the
+  /// one-sided normal derivative drops out). On further symmetry planes the normal stays
+  /// in them (their normals projected out). Before (2026-11-29) the traction held on the
+  /// normal at n, which lags a face turning at omega by omega dt: in the twisting column
+  /// that made energy (E at 1.1 s: 1.50 E0 at CFL 0.9; 0.68 E0 now, as small strain's
+  /// 0.66) and it spun the free rotating blocks up at alpha 1.2 (2D: 2.5e-2 of L per
+  /// turn, 4.2e-3 now; docs/notes/2026-11-29-own-stress-rotation.md). The normal at n:
+  /// in small strain, in 1D, for a velocity condition (its frame does not change what
+  /// is imposed) and a symmetry plane (the plane stays), and where the carried normal
+  /// would turn by more than about 25 degrees in one step.
   static Vec condition_normal(const SolverState<Dim>& state, std::size_t b, const BoundaryCondition<Dim>& condition,
                               double dt) {
     const Vec& n = state.boundary.normal[b];
-    if (!state.positions_move() || condition.kind != BoundaryCondition<Dim>::Kind::traction ||
-        SymmetryPlanes<Dim>::any(state, b))
-      return n;
-    const Vec carried = n - dt * (state.boundary.half_velocity_gradient[b].transpose() * n);
+    if (Dim == 1 || !state.positions_move() || condition.kind != BoundaryCondition<Dim>::Kind::traction) return n;
+    Mat gradient = state.boundary.half_velocity_gradient[b];
+    const Mat& span = state.boundary.half_span[b];
+    if (state.settings.deficient_stencils == SolverSettings<Dim>::DeficientStencils::complete && !span.isIdentity(0.0))
+      gradient = gradient * span + state.boundary.velocity_gradient[b] * (Mat::Identity() - span);
+    Vec carried = n - dt * (gradient.transpose() * n);
+    if (SymmetryPlanes<Dim>::any(state, b))
+      for (const Vec& plane_normal : state.boundary.extra_normal[b])
+        if (plane_normal.squaredNorm() > 0.0) {
+          const Vec m = plane_normal.normalized();
+          carried -= carried.dot(m) * m;
+        }
     const double length = carried.norm();
-    return std::isfinite(length) && length > 0.5 ? Vec(carried / length) : n;
+    if (!std::isfinite(length) || !(carried.dot(n) > 0.9 * length)) return n;
+    return carried / length;
   }
 
   /// Step 3: characteristic boundary conditions at t_new (see the file comment).
@@ -231,8 +242,8 @@ struct CharacteristicBoundary {
         }
 
       // Updated Lagrangian: the Jaumann terms (W sigma - sigma W) of the normal stress
-      // components t_n, t_k (the frame, that of the normal at t_new, is held fixed over
-      // the step), with the spin W from the velocity gradient in the frame: tangential
+      // components t_n, t_k (the frame, condition_normal's, is held fixed over the
+      // step), with the spin W from the velocity gradient in the frame: tangential
       // columns from the virtual set at n+1/2, the normal column from the real set at n.
       Mat jaumann = Mat::Zero();
       if (state.objective_rates()) {

@@ -58,8 +58,9 @@ struct SurfaceExtrapolation {
     // a neighbour (the plate's free-end corners made its Hessian, and so the end face's
     // strain rate, wrong by O(grad v / dx): the plate 6 x too stiff at alpha 0.6).
     if (!state.boundary.full_rank_gradient[b]) return;
+    const Vec frame_normal = frame.col(0);  // the conditions' normal (CharacteristicBoundary::condition_normal)
     auto g_of = [&](std::size_t slot) {  // grad_t v_n at n+1/2, in the frame
-      return Vec(frame.transpose() * (state.boundary.half_velocity_gradient[slot].transpose() * n));
+      return Vec(frame.transpose() * (state.boundary.half_velocity_gradient[slot].transpose() * frame_normal));
     };
     const Vec gi = g_of(b);
     Mat moments = Mat::Zero(), differences = Mat::Zero();
