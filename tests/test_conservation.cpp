@@ -220,6 +220,36 @@ TEST(VelocityField, IsImposedAtEveryParticle) {
   }
 }
 
+// Turns `real` (the 11 x 11 block of square(11), its stress set) a quarter turn about
+// its centre in `steps` steps of dt = cfl dx / c_p: updated Lagrangian, alpha 1.2, every
+// particle on a rigid-rotation velocity condition (condition 0, or 1 where
+// real.boundary says so: the same field).
+TaylorSph<2> quarter_turn(ParticleSet<2> real, int steps, double cfl) {
+  auto virtual_particles = make_virtual_lattice(square(11), kDensity);
+  const Vector<2> centre(5 * kDx, 5 * kDx);
+  const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
+  const double dt = cfl * kDx / material.p_wave_speed(kDensity);
+  const double omega = 0.5 * M_PI / (steps * dt);
+  auto rotation = [omega, centre](const Vector<2>& x0, double t) {
+    const double c = std::cos(omega * t), s = std::sin(omega * t);
+    const Vector<2> r = x0 - centre;
+    return Vector<2>(omega * (-s * r[0] - c * r[1]), omega * (c * r[0] - s * r[1]));
+  };
+  for (std::size_t i = 0; i < real.size(); ++i) {
+    const Vector<2> v = rotation(real.position_of(i), 0.0);
+    real.velocity[0][i] = v[0];
+    real.velocity[1][i] = v[1];
+  }
+  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
+  settings.smoothing_length = 1.2 * kDx;
+  settings.kinematics = Kinematics::updated_lagrangian;
+  TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
+                      {BoundaryCondition<2>::velocity_field(rotation, "rigid rotation"),
+                       BoundaryCondition<2>::velocity_field(rotation, "rigid rotation, second condition")});
+  for (int k = 0; k < steps; ++k) solver.step(dt);
+  return solver;
+}
+
 // Objectivity at solver level: a block pre-stressed uniformly (sigma_xx = 3e7,
 // sigma_yy = -1e7 Pa; the rate form is linear, the size of the pre-stress is only a
 // scale) turned rigidly about its centre by a quarter turn in 0.0431 s (omega = 36.5
@@ -242,7 +272,6 @@ TEST(VelocityField, IsImposedAtEveryParticle) {
 double quarter_turn_stress_change(double cfl, bool driven = false) {
   const auto box = square(11);
   ParticleSet<2> real = make_real_lattice(box, kDensity);
-  auto virtual_particles = make_virtual_lattice(box, kDensity);
   const double high = 3e7, low = -1e7;
   for (std::size_t i = 0; i < real.size(); ++i) {
     real.boundary[i] = !driven && real.position[0][i] < 0.5 * kDx ? 1 : 0;
@@ -251,28 +280,10 @@ double quarter_turn_stress_change(double cfl, bool driven = false) {
     real.stress[3][i] = 0.3 * (high + low);  // plane strain sigma_zz = nu (sxx + syy)
   }
   const Vector<2> centre(5 * kDx, 5 * kDx);
-  const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
   const int steps = static_cast<int>(std::lround(1000 / cfl));
-  const double dt = cfl * kDx / material.p_wave_speed(kDensity);
-  const double omega = 0.5 * M_PI / (steps * dt);
-  auto rotation = [omega, centre](const Vector<2>& x0, double t) {
-    const double c = std::cos(omega * t), s = std::sin(omega * t);
-    const Vector<2> r = x0 - centre;
-    return Vector<2>(omega * (-s * r[0] - c * r[1]), omega * (c * r[0] - s * r[1]));
-  };
-  for (std::size_t i = 0; i < real.size(); ++i) {
-    const Vector<2> v = rotation(real.position_of(i), 0.0);
-    real.velocity[0][i] = v[0];
-    real.velocity[1][i] = v[1];
-  }
-  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
-  settings.smoothing_length = 1.2 * kDx;
-  settings.kinematics = Kinematics::updated_lagrangian;
-  TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
-                      {BoundaryCondition<2>::velocity_field(rotation, "rigid rotation"),
-                       BoundaryCondition<2>::velocity_field(rotation, "rigid rotation, left column")});
+  const TaylorSph<2> solver = quarter_turn(std::move(real), steps, cfl);
   EXPECT_EQ(solver.state().driven(), driven);
-  for (int k = 0; k < steps; ++k) solver.step(dt);
+  const double dt = solver.time() / steps;
   const auto& r = solver.real();
   double worst = 0.0, worst_interior = 0.0;
   for (std::size_t i = 0; i < r.size(); ++i) {
@@ -320,7 +331,6 @@ TEST(Objectivity, DrivenBlockInRigidRotation) { EXPECT_LT(quarter_turn_stress_ch
 TEST(Objectivity, GradedPreStressTurnsWithEachParticle) {
   const auto box = square(11);
   ParticleSet<2> real = make_real_lattice(box, kDensity);
-  auto virtual_particles = make_virtual_lattice(box, kDensity);
   const double length = 10 * kDx, scale = 4e7;
   std::vector<Eigen::Vector2d> initial_principal(real.size());
   std::vector<Eigen::Matrix2d> initial_stress(real.size());
@@ -336,29 +346,8 @@ TEST(Objectivity, GradedPreStressTurnsWithEachParticle) {
     initial_principal[i] = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(s).eigenvalues();
     initial_stress[i] = s;
   }
-  const Vector<2> centre(5 * kDx, 5 * kDx);
-  const LinearElastic<2> material(kYoung, 0.3, kDensity, PlaneMode::plane_strain);
-  const int steps = 1000;
-  const double dt = kDx / material.p_wave_speed(kDensity);
-  const double omega = 0.5 * M_PI / (steps * dt);
-  auto rotation = [omega, centre](const Vector<2>& x0, double t) {
-    const double c = std::cos(omega * t), s = std::sin(omega * t);
-    const Vector<2> r = x0 - centre;
-    return Vector<2>(omega * (-s * r[0] - c * r[1]), omega * (c * r[0] - s * r[1]));
-  };
-  for (std::size_t i = 0; i < real.size(); ++i) {
-    const Vector<2> v = rotation(real.position_of(i), 0.0);
-    real.velocity[0][i] = v[0];
-    real.velocity[1][i] = v[1];
-  }
-  SolverSettings<2> settings = SolverSettings<2>::bare_scheme();
-  settings.smoothing_length = 1.2 * kDx;
-  settings.kinematics = Kinematics::updated_lagrangian;
-  TaylorSph<2> solver(std::move(real), std::move(virtual_particles), material, settings,
-                      {BoundaryCondition<2>::velocity_field(rotation, "rigid rotation"),
-                       BoundaryCondition<2>::velocity_field(rotation, "rigid rotation, unused")});
+  const TaylorSph<2> solver = quarter_turn(std::move(real), 1000, 1.0);
   ASSERT_TRUE(solver.state().driven());
-  for (int k = 0; k < steps; ++k) solver.step(dt);
   const auto& r = solver.real();
   double worst = 0.0, worst_turned = 0.0;
   Eigen::Matrix2d quarter;  // the body's rotation by pi/2
