@@ -185,8 +185,7 @@ constexpr bool takes_elastic_treatments(bool plastic) {
 /// resolution** (surface filter 0.02, clamp by the wall gradient, hourglass stiffness
 /// 0.05, surface extrapolation; in 3D the free edges' uniaxial stress; they pass the
 /// validation suite's elastic cases as each case's own keys did: docs/validation.md,
-/// "The defaults"); **everything else takes
-/// none** (each option off):
+/// "The defaults"); **everything else takes none** (each option off):
 ///  * 1D has no tangential direction and no mode that the virtual set's gradients do not
 ///    see; the characteristic relations are exact there (Table 1 at alpha 0.6 to
 ///    round-off: the wall gradient makes it 10 %, the hourglass stiffness diverges);

@@ -11,8 +11,9 @@
 //    accuracy, and no same-set neighbour lists in the bulk.
 //  * Boundary real particles take their state from the characteristic relations in
 //    the frame (n, t_k) of their computed outward normal (on a traction condition in
-//    updated Lagrangian, carried to t_new by the step's deformation: condition_normal). With t_n = n.sigma.n,
-//    u_n = v.n, Z_p = rho c_p (and t_k = n.sigma.t_k, u_k = v.t_k, Z_s = rho c_s):
+//    updated Lagrangian, carried to t_new by the step's deformation: condition_normal).
+//    With t_n = n.sigma.n, u_n = v.n, Z_p = rho c_p (and t_k = n.sigma.t_k, u_k = v.t_k,
+//    Z_s = rho c_s):
 //      d/dt (t_n - Z_p u_n) + c_p d/dn (t_n - Z_p u_n)
 //          = lambda div_t v_t - c_p div_t (sigma n)_t - Z_p b_n,
 //      d/dt (t_k - Z_s u_k) + c_s d/dn (t_k - Z_s u_k)
@@ -120,6 +121,14 @@ struct CharacteristicBoundary {
     return inward > 0.0 ? Vec(-m) : m;
   }
 
+  /// deficient_stencils = complete: the half-step row of slot b spans fewer than Dim
+  /// directions and no widened stencil completed it (full_step.hpp, complete_deficient_row
+  /// keeps its span P in half_span); the missing directions are read from the real set at n.
+  static bool kept_partial_span(const SolverState<Dim>& state, std::size_t b) {
+    return state.settings.deficient_stencils == SolverSettings<Dim>::DeficientStencils::complete &&
+           !state.boundary.half_span[b].isIdentity(0.0);
+  }
+
   /// The outward normal that a traction condition at t_new holds on. In updated
   /// Lagrangian the normal at n (BoundaryParticles::normal, from the positions at n)
   /// carried over the step by the deformation, n^{n+1} ~ F^-T n = (I - dt L^T) n
@@ -141,9 +150,10 @@ struct CharacteristicBoundary {
     const Vec& n = state.boundary.normal[b];
     if (Dim == 1 || !state.positions_move() || condition.kind != BoundaryCondition<Dim>::Kind::traction) return n;
     Mat gradient = state.boundary.half_velocity_gradient[b];
-    const Mat& span = state.boundary.half_span[b];
-    if (state.settings.deficient_stencils == SolverSettings<Dim>::DeficientStencils::complete && !span.isIdentity(0.0))
+    if (kept_partial_span(state, b)) {
+      const Mat& span = state.boundary.half_span[b];
       gradient = gradient * span + state.boundary.velocity_gradient[b] * (Mat::Identity() - span);
+    }
     Vec carried = n - dt * (gradient.transpose() * n);
     if (SymmetryPlanes<Dim>::any(state, b))
       for (const Vec& plane_normal : state.boundary.extra_normal[b])
@@ -206,8 +216,7 @@ struct CharacteristicBoundary {
       // was regular its span P is kept, and the missing directions come from the real set
       // at n (first order in time, for those particles only).
       const Mat& span = state.boundary.half_span[b];
-      const bool partial = state.settings.deficient_stencils == SolverSettings<Dim>::DeficientStencils::complete &&
-                           !span.isIdentity(0.0);
+      const bool partial = kept_partial_span(state, b);
       for (int k = 1; k < Dim; ++k) {
         const Vec t = frame.col(k);
         const Vec t_seen = partial ? Vec(span * t) : t;
