@@ -2,7 +2,8 @@
 # tsph validate on bad input and --list (issue 14): an unknown case name exits 2 and
 # lists the valid names; --list exits 0; a bad --cases directory exits 2; --set applies
 # a key to every case file (after the case's own overrides; a case name after it stays a
-# name) and a key the case file does not have exits 2 naming it.
+# name) and a key the case file does not have exits 2 naming it; --jobs 2 (cases at a time)
+# gives the rows of --jobs 1, in the listed order.
 #   tests/validate_cli_checks.sh build/tools/tsph OUTDIR
 set -u
 tsph=$1
@@ -37,5 +38,18 @@ if ! grep -q '"hourglass": 0.01,' "$out/s2/homogeneous_shear_2d/run/summary.json
   fail=1
 else
   echo "ok: --set: the run resolved method.hourglass = 0.01"
+fi
+check "--jobs 2" 0 "2 at a time, 1 thread each" -- \
+  "$tsph" validate homogeneous_stretch --quick --jobs 2 --out "$out/j2"
+check "--jobs 1" 0 "checks passed" -- "$tsph" validate homogeneous_stretch --quick --jobs 1 --threads 1 --out "$out/j1"
+if ! diff <(grep -E '"name"|"figure"' "$out/j1/validate.json" | sed 's/"wall_seconds": [0-9.]*//') \
+          <(grep -E '"name"|"figure"' "$out/j2/validate.json" | sed 's/"wall_seconds": [0-9.]*//'); then
+  echo "FAIL: --jobs 2: validate.json differs from --jobs 1 (the cases' order or their values)"
+  fail=1
+elif [[ $(grep -c '"figure"' "$out/j2/validate.json") -ne 6 ]]; then
+  echo "FAIL: --jobs 2: expected the 6 checks of homogeneous_stretch_3d and _2d"
+  fail=1
+else
+  echo "ok: --jobs 2: the rows of --jobs 1, in the listed order"
 fi
 exit $fail

@@ -1,4 +1,4 @@
-// tsph validate [NAME...] [--quick] [--out DIR] [--cases DIR] [--list] [--threads N] [--set KEY=VALUE...]:
+// tsph validate [NAME...] [--quick] [--out DIR] [--cases DIR] [--list] [--threads N] [--jobs N] [--set KEY=VALUE...]:
 // the large-deformation validation suite (issue 14; docs/validation.md, "Large
 // deformation (tsph validate)"). Runs the selected cases (all by default; NAME is a
 // case name or the beginning of some, e.g. "homogeneous" or "rotation_2d"), prints one
@@ -25,12 +25,15 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <memory>
+#include <mutex>
+#include <thread>
 #include <string>
 #include <vector>
 
@@ -69,7 +72,8 @@ struct ValidateOptions {
   bool quick = false, list = false;
   std::string out = "out/validate";
   std::string cases_dir = TSPH_CASES_DIR;
-  int threads = 0;
+  int threads = 0;  ///< per case; 0: the cores / jobs (one job: each case file's threads)
+  int jobs = 0;     ///< cases at a time; 0: the cores / threads
   std::vector<std::string> overrides;  ///< --set KEY=VALUE, for every case file
   std::string command;  ///< the command line, for table.md
 };
@@ -124,6 +128,56 @@ std::string today() {
   return buffer;
 }
 
+/// Runs one case into `dir` and turns what it throws into rows: a divergence that the case
+/// lets through is a failed "no divergence" row, a case file that refuses a --set counts
+/// in `refused`, any other error a failed "the case ran" row.
+CaseOutcome run_one(const Case& c, const ValidateOptions& o, int threads, const fs::path& dir, std::atomic<int>& refused) {
+  CaseOutcome outcome{c.name, c.description, {}, 0.0, ""};
+  validate::Options options;
+  options.cases_dir = o.cases_dir;
+  options.out_dir = dir.string();
+  options.quick = o.quick;
+  options.threads = threads;
+  options.overrides = o.overrides;
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    outcome.result = c.run(options);
+  } catch (const RunDiverged& e) {  // a case that lets it through: a failed "no divergence" row
+    Check diverged;
+    diverged.figure = "no divergence";
+    diverged.value = 0.0;
+    diverged.reference = 1.0;
+    diverged.error = 1.0;
+    diverged.error_kind = "abs";
+    outcome.result.checks.push_back(diverged);
+    outcome.result.notes.push_back(std::string("diverged: ") + e.what());
+  } catch (const CaseError& e) {
+    outcome.error = std::string("bad case: ") + e.what();
+    // The shipped case files load: a message that names a --set key (an unknown key, an
+    // option the case cannot take) is the --set's fault; others (a missing file) are not.
+    const std::string message = e.what();
+    const bool names_override = std::any_of(o.overrides.begin(), o.overrides.end(), [&](const std::string& s) {
+      return message.find(s.substr(0, s.find('='))) != std::string::npos;
+    });
+    if (names_override) {
+      fmt::print(stderr, "tsph: error: validate: case {} does not take the --set: {}\n", c.name, message);
+      ++refused;
+    }
+  } catch (const std::exception& e) {
+    outcome.error = e.what();
+  }
+  outcome.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!outcome.error.empty()) {
+    Check failed;
+    failed.figure = "the case ran";
+    failed.value = std::nan("");
+    failed.error_kind = "abs";
+    outcome.result.checks.push_back(failed);
+    outcome.result.notes.push_back(outcome.error);
+  }
+  return outcome;
+}
+
 int run_validate(const ValidateOptions& o) {
   const std::vector<Case> all = registered_cases();
   if (o.list) {
@@ -168,67 +222,58 @@ int run_validate(const ValidateOptions& o) {
     }
   if (!prepare_output_directory("tsph", o.out)) return kExitBadInput;
 
+  // Concurrent cases (--jobs): each case runs on its own std::thread with its own OpenMP
+  // thread count (an OpenMP ICV is per thread), the slow cases first, so that the long
+  // ones overlap and the short ones fill the gaps. Most cases are too small for two
+  // threads to pay (a 2D plate of 1 100 particles runs faster on one thread: the loops'
+  // barriers cost more than half the step), so the default is one case per core.
+  const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  int jobs = o.jobs > 0 ? o.jobs : std::max(1, cores / std::max(1, o.threads));
+  jobs = std::min<int>(jobs, static_cast<int>(selected.size()));
+  const int threads = o.threads > 0 ? o.threads : (jobs > 1 ? std::max(1, cores / jobs) : 0);
+  std::vector<std::size_t> order(selected.size());  // the slow cases first, each group in the listed order
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return selected[a]->slow && !selected[b]->slow; });
+  for (const Case* c : selected)
+    if (!fresh_directory("tsph", (fs::path(o.out) / c->name).string())) return kExitBadInput;
+  if (jobs > 1)
+    fmt::print(stderr, "tsph: validate: {} cases, {} at a time, {} thread{} each (--jobs, --threads)\n", selected.size(),
+               jobs, threads, threads == 1 ? "" : "s");
+
   fmt::print("{:<32} {:<62} {:>13} {:>13} {:>10} {:>9} {:>4} {}\n", "case", "figure", "value", "reference", "error",
              "tolerance", "kind", "verdict");
-  std::vector<CaseOutcome> outcomes;
-  int refused = 0;  // cases whose file refused a --set (an unknown key, an option it cannot take)
-  for (const Case* c : selected) {
-    CaseOutcome outcome{c->name, c->description, {}, 0.0, ""};
-    const fs::path dir = fs::path(o.out) / c->name;
-    if (!fresh_directory("tsph", dir.string())) return kExitBadInput;
-    validate::Options options;
-    options.cases_dir = o.cases_dir;
-    options.out_dir = dir.string();
-    options.quick = o.quick;
-    options.threads = o.threads;
-    options.overrides = o.overrides;
-    const auto start = std::chrono::steady_clock::now();
-    try {
-      outcome.result = c->run(options);
-    } catch (const RunDiverged& e) {  // a case that lets it through: a failed "no divergence" row
-      Check diverged;
-      diverged.figure = "no divergence";
-      diverged.value = 0.0;
-      diverged.reference = 1.0;
-      diverged.error = 1.0;
-      diverged.error_kind = "abs";
-      outcome.result.checks.push_back(diverged);
-      outcome.result.notes.push_back(std::string("diverged: ") + e.what());
-    } catch (const CaseError& e) {
-      outcome.error = std::string("bad case: ") + e.what();
-      // The shipped case files load: a message that names a --set key (an unknown key, an
-      // option the case cannot take) is the --set's fault; others (a missing file) are not.
-      const std::string message = e.what();
-      const bool names_override = std::any_of(o.overrides.begin(), o.overrides.end(), [&](const std::string& s) {
-        return message.find(s.substr(0, s.find('='))) != std::string::npos;
-      });
-      if (names_override) {
-        fmt::print(stderr, "tsph: error: validate: case {} does not take the --set: {}\n", c->name, message);
-        ++refused;
+  std::vector<CaseOutcome> outcomes(selected.size());
+  std::atomic<int> refused{0};  // cases whose file refused a --set (an unknown key, an option it cannot take)
+  std::atomic<bool> write_failed{false};
+  std::atomic<std::size_t> next{0};
+  std::mutex print_mutex;  // one case's rows and notes stay together
+  auto worker = [&] {
+    for (std::size_t k = next++; k < order.size(); k = next++) {
+      const Case* c = selected[order[k]];
+      const fs::path dir = fs::path(o.out) / c->name;
+      CaseOutcome outcome = run_one(*c, o, threads, dir, refused);
+      const std::lock_guard<std::mutex> lock(print_mutex);
+      for (const auto& check : outcome.result.checks) print_row(c->name, check);
+      for (const auto& note : outcome.result.notes) fmt::print("  {}: {}\n", c->name, note);
+      std::fflush(stdout);
+      try {
+        for (const auto& s : outcome.result.series) write_series(dir, s);
+      } catch (const std::exception& e) {
+        fmt::print(stderr, "tsph: failed: {}\n", e.what());
+        write_failed = true;
       }
-    } catch (const std::exception& e) {
-      outcome.error = e.what();
+      outcomes[order[k]] = std::move(outcome);
     }
-    outcome.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!outcome.error.empty()) {
-      Check failed;
-      failed.figure = "the case ran";
-      failed.value = std::nan("");
-      failed.error_kind = "abs";
-      outcome.result.checks.push_back(failed);
-      outcome.result.notes.push_back(outcome.error);
-    }
-    for (const auto& check : outcome.result.checks) print_row(c->name, check);
-    for (const auto& note : outcome.result.notes) fmt::print("  {}: {}\n", c->name, note);
-    std::fflush(stdout);
-    try {
-      for (const auto& s : outcome.result.series) write_series(dir, s);
-    } catch (const std::exception& e) {
-      fmt::print(stderr, "tsph: failed: {}\n", e.what());
-      return kExitFailure;
-    }
-    outcomes.push_back(std::move(outcome));
+  };
+  if (jobs <= 1) {
+    worker();
+  } else {
+    std::vector<std::thread> pool;
+    for (int j = 0; j < jobs; ++j) pool.emplace_back(worker);
+    for (auto& t : pool) t.join();
   }
+  if (write_failed) return kExitFailure;
 
   // The summary: table.md and validate.json.
   int passed = 0, failed = 0;
@@ -273,7 +318,7 @@ int run_validate(const ValidateOptions& o) {
     return kExitFailure;
   }
   fmt::print("{} checks passed, {} failed{}; table.md, validate.json and the series in {}\n", passed, failed,
-             refused > 0 ? fmt::format(" ({} case(s) refused the --set: exit status 2)", refused) : "", o.out);
+             refused > 0 ? fmt::format(" ({} case(s) refused the --set: exit status 2)", refused.load()) : "", o.out);
 
   // The plots: optional (python3 with matplotlib). The python3 on PATH first, then the
   // system's, where tools/setup.sh installs matplotlib (a pyenv or venv python3 on PATH
@@ -307,7 +352,10 @@ Subcommand add_validate(CLI::App& app, int argc, char** argv) {
   sub->add_option("--out", o->out, "output directory (default: out/validate)");
   sub->add_option("--cases", o->cases_dir, "directory of the case files (default: the source tree's tools/cases)");
   sub->add_flag("--list", o->list, "list the cases and exit");
-  sub->add_option("--threads", o->threads, "OpenMP threads (0: each case's threads)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--threads", o->threads, "OpenMP threads per case (0: the cores / --jobs; with one job, each case file's threads)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--jobs", o->jobs, "cases run at a time (0: the cores / --threads; 1: one after the other)")
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--set", o->overrides,
                   "override a key of every case file after the case's own settings, e.g. --set "
                   "method.conservative_momentum=true (repeatable; for method keys: the references assume the "
