@@ -40,7 +40,7 @@ else
   echo "ok: --set: the run resolved method.hourglass = 0.01"
 fi
 check "--jobs 2" 0 "2 at a time, 1 thread each" -- \
-  "$tsph" validate homogeneous_stretch --quick --jobs 2 --out "$out/j2"
+  "$tsph" validate homogeneous_stretch --quick --jobs 2 --threads 1 --out "$out/j2"
 check "--jobs 1" 0 "checks passed" -- "$tsph" validate homogeneous_stretch --quick --jobs 1 --threads 1 --out "$out/j1"
 if ! diff <(grep -E '"name"|"figure"' "$out/j1/validate.json" | sed 's/"wall_seconds": [0-9.]*//') \
           <(grep -E '"name"|"figure"' "$out/j2/validate.json" | sed 's/"wall_seconds": [0-9.]*//'); then

@@ -227,8 +227,11 @@ int run_validate(const ValidateOptions& o) {
   // ones overlap and the short ones fill the gaps. Most cases are too small for two
   // threads to pay (a 2D plate of 1 100 particles runs faster on one thread: the loops'
   // barriers cost more than half the step), so the default is one case per core.
+  // At most kDefaultJobs by default: each case keeps its frames in memory, and a large
+  // machine is better used with more threads per case than with forty cases at once.
+  constexpr int kDefaultJobs = 4;
   const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  int jobs = o.jobs > 0 ? o.jobs : std::max(1, cores / std::max(1, o.threads));
+  int jobs = o.jobs > 0 ? o.jobs : std::clamp(cores / std::max(1, o.threads), 1, kDefaultJobs);
   jobs = std::min<int>(jobs, static_cast<int>(selected.size()));
   const int threads = o.threads > 0 ? o.threads : (jobs > 1 ? std::max(1, cores / jobs) : 0);
   std::vector<std::size_t> order(selected.size());  // the slow cases first, each group in the listed order
@@ -248,22 +251,27 @@ int run_validate(const ValidateOptions& o) {
   std::atomic<bool> write_failed{false};
   std::atomic<std::size_t> next{0};
   std::mutex print_mutex;  // one case's rows and notes stay together
+  // A worker stops taking cases once an output could not be written (the run then exits 1
+  // without a table); nothing it throws leaves its thread (that would end the program).
   auto worker = [&] {
-    for (std::size_t k = next++; k < order.size(); k = next++) {
+    for (std::size_t k = next++; k < order.size() && !write_failed; k = next++) {
       const Case* c = selected[order[k]];
       const fs::path dir = fs::path(o.out) / c->name;
-      CaseOutcome outcome = run_one(*c, o, threads, dir, refused);
-      const std::lock_guard<std::mutex> lock(print_mutex);
-      for (const auto& check : outcome.result.checks) print_row(c->name, check);
-      for (const auto& note : outcome.result.notes) fmt::print("  {}: {}\n", c->name, note);
-      std::fflush(stdout);
       try {
+        CaseOutcome outcome = run_one(*c, o, threads, dir, refused);
+        const std::lock_guard<std::mutex> lock(print_mutex);
+        for (const auto& check : outcome.result.checks) print_row(c->name, check);
+        for (const auto& note : outcome.result.notes) fmt::print("  {}: {}\n", c->name, note);
+        std::fflush(stdout);
         for (const auto& s : outcome.result.series) write_series(dir, s);
+        outcomes[order[k]] = std::move(outcome);
       } catch (const std::exception& e) {
-        fmt::print(stderr, "tsph: failed: {}\n", e.what());
+        fmt::print(stderr, "tsph: failed: {}: {}\n", c->name, e.what());
+        write_failed = true;
+      } catch (...) {
+        fmt::print(stderr, "tsph: failed: {}: an unknown error\n", c->name);
         write_failed = true;
       }
-      outcomes[order[k]] = std::move(outcome);
     }
   };
   if (jobs <= 1) {
@@ -354,7 +362,7 @@ Subcommand add_validate(CLI::App& app, int argc, char** argv) {
   sub->add_flag("--list", o->list, "list the cases and exit");
   sub->add_option("--threads", o->threads, "OpenMP threads per case (0: the cores / --jobs; with one job, each case file's threads)")
       ->check(CLI::NonNegativeNumber);
-  sub->add_option("--jobs", o->jobs, "cases run at a time (0: the cores / --threads; 1: one after the other)")
+  sub->add_option("--jobs", o->jobs, "cases run at a time (0: the cores / --threads, at most 4; 1: one after the other)")
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--set", o->overrides,
                   "override a key of every case file after the case's own settings, e.g. --set "
