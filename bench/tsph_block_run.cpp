@@ -6,6 +6,7 @@
 //                  [--small-strain] [--order none|shuffled|cells|morton]
 //                  [--search auto|cell_list|kd_tree] [--transpose]
 //                  [--solver-order none|cells|morton] [--skin S (default 0.05; 0: none)]
+//                  [--kernel reference|current (default reference: the skin does not apply)]
 #include "bench/block_case.hpp"
 #include "engine/memory_estimate.hpp"
 #include "engine/parallel.hpp"
@@ -44,6 +45,10 @@ struct Options {
   /// SolverSettings::spatial_order: the solver sorts the sets when their order decays.
   SpatialOrder solver_order = SpatialOrder::none;
   double skin = 0.05;  ///< SolverSettings::neighbor_skin (fraction of 2h; its default; 0: none)
+  /// SolverSettings::kernel_configuration (updated Lagrangian): reference, the default (the
+  /// lists of X, searched once: the skin does not apply), or current (the lists follow
+  /// the particles: searched again when the skin is used up, or at every step without).
+  std::string kernel = "reference";
   /// material.model (issue 16): elastic, j2 (yield stress `yield`) or drucker_prager
   /// (cohesion `yield`, phi 20, psi 10); the default yield of 1 Pa makes every particle
   /// yield at every step (the plastic step's full cost), 1e30 none.
@@ -57,7 +62,7 @@ struct Options {
                "usage: tsph-block-run [--dim 2|3] [--particles N] [--steps K] [--threads T] "
                "[--alpha A] [--small-strain] [--order none|shuffled|cells|morton] "
                "[--search auto|cell_list|kd_tree] [--transpose] [--solver-order none|cells|morton] "
-               "[--skin S] [--model elastic|j2|drucker_prager] [--yield Y]\n");
+               "[--skin S] [--kernel reference|current] [--model elastic|j2|drucker_prager] [--yield Y]\n");
   std::exit(2);
 }
 
@@ -79,9 +84,13 @@ template <int Dim>
 int run(const Options& o) {
   const auto box = bench::block_box<Dim>(o.particles);
   const auto real_count = static_cast<std::size_t>(box.total_nodes());
-  const double skin = o.kinematics == Kinematics::updated_lagrangian ? o.skin : 0.0;
+  const bool moving = o.kinematics == Kinematics::updated_lagrangian;
+  const double skin = moving ? o.skin : 0.0;
+  const bool reference_lists = moving && o.kernel == "reference";
+  const double estimate =
+      estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists, skin, false, false, false, reference_lists);
   try {
-    check_memory_budget(estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists, skin), real_count,
+    check_memory_budget(estimate, real_count,
                         available_memory_bytes());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tsph-block-run: error: %s\n", e.what());
@@ -104,6 +113,8 @@ int run(const Options& o) {
     settings.transpose_lists = o.transpose_lists;
     settings.spatial_order = o.solver_order;
     settings.neighbor_skin = o.skin;
+    settings.kernel_configuration = o.kernel == "current" ? SolverSettings<Dim>::KernelConfiguration::current
+                                                          : SolverSettings<Dim>::KernelConfiguration::reference;
   };
   const std::string material_keys =
       o.model == "j2" ? fmt::format("model = \"j2\"\nyield_stress = {:.17g}\n", o.yield)
@@ -129,7 +140,7 @@ int run(const Options& o) {
               "per real particle, kinetic energy %.9e\n",
               setup_s, o.steps, steps_s,
               o.steps > 0 ? 1e-6 * static_cast<double>(real_count) * o.steps / steps_s : 0.0,
-              estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists, skin), solver.kinetic_energy());
+              estimate, solver.kinetic_energy());
   // Peak resident memory of the whole process, setup included.
   if (const double peak = peak_resident_bytes(); peak > 0.0)
     std::printf("peak RSS %.3f GiB, %.0f B per real particle\n", peak / 1073741824.0,
@@ -169,6 +180,13 @@ int main(int argc, char** argv) {
       o.model = argv[++a];
       if (o.model != "elastic" && o.model != "j2" && o.model != "drucker_prager")
         usage_error("model = '" + o.model + "' is invalid: must be one of: elastic, j2, drucker_prager");
+      continue;
+    }
+    if (key == "--kernel") {
+      if (a + 1 >= argc) usage_error("option --kernel needs a value");
+      o.kernel = argv[++a];
+      if (o.kernel != "reference" && o.kernel != "current")
+        usage_error("kernel = '" + o.kernel + "' is invalid: must be one of: reference, current");
       continue;
     }
     if (key == "--transpose") {

@@ -33,6 +33,9 @@
 //   * with SolverSettings::transpose_lists, both half-step lists at once while the
 //     full step's is transposed from the half step's (instead of the cell list and one
 //     list);
+//   * with the kernel in the reference configuration (SolverSettings::kernel_configuration,
+//     the default: `reference_lists` here), both half-step lists of radius 2h, searched
+//     once at X and kept (no skin, no cell list after the first search);
 //   * with a Verlet skin s (SolverSettings::neighbor_skin, a fraction of 2h), both
 //     half-step lists at once, each of the radius (1 + s) 2h ((1 + s)^Dim times the
 //     pairs) (the displacements since the search are bounded by a scalar per set, no
@@ -79,7 +82,7 @@ double cell_centres_within(double radius) {
 template <int Dim>
 double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false, double skin = 0.0,
                                         bool keep_virtual_fields = false, bool energy_ledger = false,
-                                        bool hourglass_stiffness = false) {
+                                        bool hourglass_stiffness = false, bool reference_lists = false) {
   if (!(alpha > 0.0) || !std::isfinite(alpha))
     throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
                                 " must be positive");
@@ -89,6 +92,7 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
   const double virtual_set =
       keep_virtual_fields ? real_set : 8.0 * (3 * Dim + stress_component_count<Dim> + 3);
   const double sets = real_set + virtual_set + (energy_ledger ? 8.0 * Dim : 0.0);
+  if (reference_lists) skin = 0.0;  // the lists of X: searched once, no skin
   const double radius = 2.0 * alpha * (1.0 + skin);  // list radius in lattice spacings
   const double pairs = Dim == 1   ? 2.0 * radius
                        : Dim == 2 ? std::numbers::pi * radius * radius
@@ -100,7 +104,7 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
   const double stiffness = hourglass_stiffness ? 2.0 * (4.0 + 12.0 * return_pairs) + 9.0 * pairs +
                                                      2.0 * 8.0 * (Dim + 2) + 2.0 * 8.0 * Dim
                                                : 0.0;
-  if (skin > 0.0) return sets + 2.0 * list + boundary_offsets + stiffness;
+  if (skin > 0.0 || reference_lists) return sets + 2.0 * list + boundary_offsets + stiffness;
   // Without a skin the half-step list is released before the full step's is built, except
   // with the hourglass stiffness, which reads it after the full step (both held).
   const double lists = transposed_lists ? 2.0 * list : list + cell_list + (hourglass_stiffness ? list : 0.0);

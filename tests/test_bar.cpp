@@ -179,19 +179,27 @@ TEST(Bar, UpdatedLagrangianMatchesSmallStrainAtSmallAmplitude) {
     return seed_bar(0.6, 1.0, more);
   };
   const CaseRun linear = with({});
-  // Without skin: a search at every step.
-  const CaseRun moving = with({"method.kinematics=updated_lagrangian", "solver.neighbor_skin=0.0"});
+  // The kernel in the current configuration without skin: a search at every step.
+  const CaseRun moving = with({"method.kinematics=updated_lagrangian", "solver.neighbor_skin=0.0",
+                               "method.kernel_configuration=\"current\""});
   EXPECT_EQ(moving.report.neighbor_builds, moving.report.steps + 1);
   for (double t : {3.75e-3, 7.5e-3})
     EXPECT_LT(relative_l2_percent(moving.at(t).velocity_x, linear.at(t).velocity_x), 1e-2);
   // With the default skin (0.05 of 2h) the particles (speeds of order v0 = 1e-4 m/s)
   // never cross it: the lists of the construction serve the whole run; the same
   // profiles to round-off (the skin's zero-weight pairs).
-  const CaseRun skin = with({"method.kinematics=updated_lagrangian"});
+  const CaseRun skin = with({"method.kinematics=updated_lagrangian", "method.kernel_configuration=\"current\""});
   EXPECT_EQ(skin.file.neighbor_skin, 0.05);
   EXPECT_EQ(skin.report.neighbor_builds, 1);
   for (double t : {3.75e-3, 7.5e-3})
     EXPECT_LT(relative_l2_percent(skin.at(t).velocity_x, moving.at(t).velocity_x), 1e-9);
+  // The kernel in the reference configuration (the default): the lists of X, searched
+  // once; the same profiles to the geometric nonlinearity.
+  const CaseRun reference = with({"method.kinematics=updated_lagrangian"});
+  EXPECT_EQ(reference.file.kernel_configuration, "reference");
+  EXPECT_EQ(reference.report.neighbor_builds, 1);
+  for (double t : {3.75e-3, 7.5e-3})
+    EXPECT_LT(relative_l2_percent(reference.at(t).velocity_x, linear.at(t).velocity_x), 1e-2);
 }
 
 // Bad input: each invalid parameter is named with its value and allowed range (the one

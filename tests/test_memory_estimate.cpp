@@ -37,6 +37,10 @@ TEST(MemoryEstimate, CountsSetsListsAndCellList) {
   // positions (path bounds), no cell list at the peak.
   EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.1),
               132.0 + 104.0 + 2.0 * (4.0 + 4.0 * 1.21 * 18.096) + 4.0, 0.2);
+  // The kernel in the reference configuration (the default of updated Lagrangian): both
+  // lists of radius 2h kept, whatever the skin, no cell list at the peak.
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.1, false, false, false, true),
+              132.0 + 104.0 + 2.0 * 76.38 + 4.0, 0.2);
   for (double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()})
     EXPECT_THROW(estimate_bytes_per_real_particle<2>(bad), std::invalid_argument);
   EXPECT_THROW(estimate_bytes_per_real_particle<2>(1.2, false, -0.1), std::invalid_argument);
@@ -76,9 +80,13 @@ TEST(MemoryEstimate, RefusesACountThatDoesNotFitWithTheEstimateAndTheLimit) {
 }
 
 TEST(MemoryEstimate, UpdatedLagrangianHoldsOneCurrentHalfStepList) {
-  // Without skin (with the default skin both lists are kept: the next test).
+  // The kernel in the current configuration without skin (with the skin both lists are
+  // kept: the next test; the reference kernel keeps both: below).
   auto solver = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
-                                     [](SolverSettings<2>& settings) { settings.neighbor_skin = 0.0; });
+                                     [](SolverSettings<2>& settings) {
+                                       settings.kernel_configuration = SolverSettings<2>::KernelConfiguration::current;
+                                       settings.neighbor_skin = 0.0;
+                                     });
   const double dt = bench::block_time_step(solver, 1.2);
   for (int k = 0; k < 3; ++k) solver.step(dt);
   EXPECT_EQ(solver.real_from_virtual().pair_count(), 0u);  // released until the full step
@@ -88,6 +96,14 @@ TEST(MemoryEstimate, UpdatedLagrangianHoldsOneCurrentHalfStepList) {
       points_of<2>(virtual_particles), points_of<2>(real), solver.support_radius());
   EXPECT_TRUE(solver.virtual_from_real() == expected);  // built at the moved positions
   EXPECT_GT(expected.pair_count(), 10 * virtual_particles.size());
+
+  // The reference kernel (the default): both lists searched once at X and kept.
+  auto reference = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
+                                        [](SolverSettings<2>& settings) { settings.neighbor_skin = 0.0; });
+  for (int k = 0; k < 3; ++k) reference.step(dt);
+  EXPECT_EQ(reference.state().settings.kernel_configuration, SolverSettings<2>::KernelConfiguration::reference);
+  EXPECT_EQ(reference.real_from_virtual().pair_count(), reference.virtual_from_real().pair_count());
+  EXPECT_GT(reference.real_from_virtual().pair_count(), 10 * virtual_particles.size());
 }
 
 // What the model counts besides the lists: the virtual set without its optional fields

@@ -82,6 +82,9 @@ struct MovingBlock {
     SolverSettings<Dim> settings = SolverSettings<Dim>::bare_scheme();
     settings.smoothing_length = 1.2 * kSpacing;
     settings.kinematics = Kinematics::updated_lagrangian;
+    // The skin serves the lists of the current configuration; the reference kernel
+    // (the default) searches its lists once, at X.
+    settings.kernel_configuration = SolverSettings<Dim>::KernelConfiguration::current;
     settings.neighbor_skin = skin;
     settings.conservative_momentum = conservative;
     return TaylorSph<Dim>(real, virtual_particles, LinearElastic<Dim>(kYoung, 0.3, kDensity), settings, conditions);

@@ -319,7 +319,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.deficient_stencils =
         m.text("deficient_stencils", false, {"keep", "widen", "widen_motion", "complete"}).value_or("keep");
     c.kernel_configuration =
-        m.text("kernel_configuration", false, {"current", "reference"}).value_or("current");
+        m.text("kernel_configuration", false, {"current", "reference"}).value_or("reference");
     const std::optional<bool> free_edges = m.boolean("free_edge_uniaxial");
     c.free_edge_uniaxial = !free_edges ? Toggle::automatic : *free_edges ? Toggle::on : Toggle::off;
     if (c.free_edge_uniaxial == Toggle::on && c.dimension != 3)

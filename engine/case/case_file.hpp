@@ -134,7 +134,7 @@ struct CaseFile {
   std::string surface_motion = "linear";  ///< SolverSettings::surface_motion: linear, shepard
   bool conservative_momentum = false;    ///< SolverSettings::conservative_momentum
   std::string deficient_stencils = "keep";  ///< SolverSettings::deficient_stencils: keep, widen, widen_motion, complete
-  std::string kernel_configuration = "current";  ///< SolverSettings::kernel_configuration: current, reference
+  std::string kernel_configuration = "reference";  ///< SolverSettings::kernel_configuration: current, reference
   Toggle free_edge_uniaxial = Toggle::automatic;  ///< SolverSettings::free_edge_uniaxial (3D only)
   std::vector<double> body_force;
 

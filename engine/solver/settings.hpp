@@ -122,17 +122,20 @@ struct SolverSettings {
   /// docs/notes/2026-11-28-deficient-surface-rows.md).
   enum class DeficientStencils { keep, widen, widen_motion, complete };
   DeficientStencils deficient_stencils = DeficientStencils::keep;
-  /// Updated Lagrangian, experimental (issue 14; docs/notes/2026-11-26-reference-kernel.md):
-  /// where the kernel is evaluated. current: at the current offsets x_J - x_I (the
-  /// default; the stencils deform with the body: a sheared corner or a compressed face
-  /// loses its neighbours); reference: at the initial offsets X_J - X_I, the corrections
-  /// (gradient, linear interpolation) at the current ones
+  /// Updated Lagrangian (issue 14; docs/notes/2026-11-26-reference-kernel.md,
+  /// docs/notes/2026-11-29-reference-kernel-default.md): where the kernel is evaluated.
+  /// reference (the default since 2026-11-29): at the initial offsets X_J - X_I, the
+  /// corrections (gradient, linear interpolation) at the current ones
   /// (kernels/corrected_operators.hpp, ReferenceStencil), so the stencils are those of
-  /// the undeformed body and the weights stay exact for linear fields of the current
-  /// configuration. The lists are then searched once, in the reference configuration
-  /// (no skin, no rebuild): bodies that tear or mix are out of its reach.
+  /// the undeformed body (a Lagrangian kernel, Belytschko et al. 2000: no tensile
+  /// instability) and the weights stay exact for linear fields of the current
+  /// configuration. The lists are searched once, in the reference configuration (no
+  /// skin, no rebuild): bodies that tear or mix are out of its reach. current: at the
+  /// current offsets x_J - x_I (the stencils deform with the body: a sheared corner or a
+  /// compressed face loses its neighbours; the twisting column at alpha 0.6 diverges in
+  /// its first 60 steps).
   enum class KernelConfiguration { current, reference };
-  KernelConfiguration kernel_configuration = KernelConfiguration::current;
+  KernelConfiguration kernel_configuration = KernelConfiguration::reference;
   /// Search of the neighbour lists: cell list, kd-tree, or `automatic` (the rule of
   /// neighbor/neighbor_search.hpp). Same lists either way.
   NeighborSearch neighbor_search = NeighborSearch::automatic;
