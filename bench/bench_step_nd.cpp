@@ -1,15 +1,19 @@
 // Taylor-SPH in 2D and 3D (bench/block_case.hpp: a block held at one end, updated
 // Lagrangian, alpha = 1.2 unless said), in real-particle-steps per second, real time:
-//   Step    the whole step: boundary pre-pass, half step, full step, boundary
-//           conditions, move, neighbour rebuild (cell list) when the Verlet skin
-//           (0.05 of 2h, SolverSettings' default) no longer covers the motion, normals;
-//   StepNoSkin  the whole step without skin (two searches per step);
+//   Step    the whole step as run by default: boundary pre-pass, half step, full step,
+//           boundary conditions, move, normals; the kernel in the reference
+//           configuration (SolverSettings::kernel_configuration, the default since
+//           2026-11-29: the lists of X, searched once);
+//   StepCurrent  the whole step with the kernel in the current configuration and the
+//           Verlet skin (0.05 of 2h): the neighbour rebuild (cell list) when the skin no
+//           longer covers the motion (Step before 2026-11-29);
+//   StepNoSkin  the current kernel without skin (two searches per step);
 //   Half    seed eq. (3) alone (real -> virtual), lists kept (small strain);
 //   Full    seed eq. (4) alone (virtual -> real), lists kept (small strain);
 //   Rebuild all three neighbour lists and the boundary normals alone;
-//   StepTransposed  the whole step without skin, with SolverSettings::transpose_lists
+//   StepTransposed  the current kernel without skin, with SolverSettings::transpose_lists
 //           (the full step's list transposed from the half step's instead of searched).
-//   StepSkin<P>  the whole step with a Verlet skin of P % of 2h
+//   StepSkin<P>  the current kernel with a Verlet skin of P % of 2h
 //           (SolverSettings::neighbor_skin; counter steps_per_build).
 // Arguments: particles, threads.
 #include "bench/block_case.hpp"
@@ -25,12 +29,12 @@ constexpr double kAlpha = 1.2;
 
 enum class Stage { step, half, full, rebuild };
 
-template <int Dim, Stage stage, bool transposed = false, int skin_percent = 5>
+template <int Dim, Stage stage, bool transposed = false, int skin_percent = 5, bool current = false>
 void BM_Stage(benchmark::State& state) {
   const int before = thread_count();
   set_thread_count(static_cast<int>(state.range(1)));
   // The stages alone run in small strain, where the lists are built once and kept;
-  // the whole step runs updated Lagrangian (every step rebuilds them).
+  // the whole step runs updated Lagrangian.
   auto solver = bench::make_block<Dim>(
       state.range(0), kAlpha,
       stage == Stage::step ? Kinematics::updated_lagrangian : Kinematics::small_strain,
@@ -38,6 +42,7 @@ void BM_Stage(benchmark::State& state) {
       [](SolverSettings<Dim>& settings) {
         settings.transpose_lists = transposed;
         settings.neighbor_skin = 0.01 * skin_percent;
+        if (current) settings.kernel_configuration = SolverSettings<Dim>::KernelConfiguration::current;
       });
   const std::int64_t builds_before = solver.counters().neighbor_builds;
   const double dt = bench::block_time_step(solver, kAlpha);
@@ -75,17 +80,19 @@ void sizes_3d(benchmark::internal::Benchmark* b) {
 }
 
 BENCHMARK(BM_Stage<2, Stage::step>)->Name("Step2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, false, 5, true>)->Name("StepCurrent2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::half>)->Name("Half2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::full>)->Name("Full2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<2, Stage::rebuild>)->Name("Rebuild2D")->Apply(sizes_2d);
-BENCHMARK(BM_Stage<2, Stage::step, true, 0>)->Name("StepTransposed2D")->Apply(sizes_2d);
-BENCHMARK(BM_Stage<2, Stage::step, false, 0>)->Name("StepNoSkin2D")->Apply(sizes_2d);
-BENCHMARK(BM_Stage<2, Stage::step, false, 10>)->Name("StepSkin10_2D")->Apply(sizes_2d);
-BENCHMARK(BM_Stage<2, Stage::step, false, 20>)->Name("StepSkin20_2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, true, 0, true>)->Name("StepTransposed2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, false, 0, true>)->Name("StepNoSkin2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, false, 10, true>)->Name("StepSkin10_2D")->Apply(sizes_2d);
+BENCHMARK(BM_Stage<2, Stage::step, false, 20, true>)->Name("StepSkin20_2D")->Apply(sizes_2d);
 BENCHMARK(BM_Stage<3, Stage::step>)->Name("Step3D")->Apply(sizes_3d);
-BENCHMARK(BM_Stage<3, Stage::step, false, 0>)->Name("StepNoSkin3D")->Apply(sizes_3d);
-BENCHMARK(BM_Stage<3, Stage::step, false, 10>)->Name("StepSkin10_3D")->Apply(sizes_3d);
-BENCHMARK(BM_Stage<3, Stage::step, true, 0>)->Name("StepTransposed3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::step, false, 5, true>)->Name("StepCurrent3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::step, false, 0, true>)->Name("StepNoSkin3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::step, false, 10, true>)->Name("StepSkin10_3D")->Apply(sizes_3d);
+BENCHMARK(BM_Stage<3, Stage::step, true, 0, true>)->Name("StepTransposed3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::half>)->Name("Half3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::full>)->Name("Full3D")->Apply(sizes_3d);
 BENCHMARK(BM_Stage<3, Stage::rebuild>)->Name("Rebuild3D")->Apply(sizes_3d);

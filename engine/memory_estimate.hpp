@@ -35,7 +35,8 @@
 //     list);
 //   * with the kernel in the reference configuration (SolverSettings::kernel_configuration,
 //     the default: `reference_lists` here), both half-step lists of radius 2h, searched
-//     once at X and kept (no skin, no cell list after the first search);
+//     once at X and kept (no skin), the second searched with a cell list while the first
+//     is held (unless transposed);
 //   * with a Verlet skin s (SolverSettings::neighbor_skin, a fraction of 2h), both
 //     half-step lists at once, each of the radius (1 + s) 2h ((1 + s)^Dim times the
 //     pairs) (the displacements since the search are bounded by a scalar per set, no
@@ -104,7 +105,10 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
   const double stiffness = hourglass_stiffness ? 2.0 * (4.0 + 12.0 * return_pairs) + 9.0 * pairs +
                                                      2.0 * 8.0 * (Dim + 2) + 2.0 * 8.0 * Dim
                                                : 0.0;
-  if (skin > 0.0 || reference_lists) return sets + 2.0 * list + boundary_offsets + stiffness;
+  if (skin > 0.0) return sets + 2.0 * list + boundary_offsets + stiffness;
+  // The reference lists: the full step's list is searched (a cell list) while the half
+  // step's is held, once, at the construction, unless it is transposed from it.
+  if (reference_lists) return sets + 2.0 * list + (transposed_lists ? 0.0 : cell_list) + boundary_offsets + stiffness;
   // Without a skin the half-step list is released before the full step's is built, except
   // with the hourglass stiffness, which reads it after the full step (both held).
   const double lists = transposed_lists ? 2.0 * list : list + cell_list + (hourglass_stiffness ? list : 0.0);

@@ -38,8 +38,11 @@ TEST(MemoryEstimate, CountsSetsListsAndCellList) {
   EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.1),
               132.0 + 104.0 + 2.0 * (4.0 + 4.0 * 1.21 * 18.096) + 4.0, 0.2);
   // The kernel in the reference configuration (the default of updated Lagrangian): both
-  // lists of radius 2h kept, whatever the skin, no cell list at the peak.
+  // lists of radius 2h kept, whatever the skin, and the cell list of the second search
+  // (none when it is transposed from the first).
   EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.1, false, false, false, true),
+              132.0 + 104.0 + 2.0 * 76.38 + 24.0 + 4.0, 0.2);
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, true, 0.1, false, false, false, true),
               132.0 + 104.0 + 2.0 * 76.38 + 4.0, 0.2);
   for (double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()})
     EXPECT_THROW(estimate_bytes_per_real_particle<2>(bad), std::invalid_argument);
@@ -111,8 +114,11 @@ TEST(MemoryEstimate, UpdatedLagrangianHoldsOneCurrentHalfStepList) {
 // initial positions), no v^n, 32-bit row starts; with a skin both half-step lists are
 // kept between steps.
 TEST(MemoryEstimate, SolverReleasesWhatItDoesNotRead) {
-  auto solver = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
-                                     [](SolverSettings<2>& settings) { settings.neighbor_skin = 0.05; });
+  auto current = [](SolverSettings<2>& settings) {  // the skin's lists: the kernel in the current configuration
+    settings.kernel_configuration = SolverSettings<2>::KernelConfiguration::current;
+    settings.neighbor_skin = 0.05;
+  };
+  auto solver = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {}, current);
   const double dt = bench::block_time_step(solver, 1.2);
   for (int k = 0; k < 2; ++k) solver.step(dt);
   const auto& virtual_particles = solver.virtual_particles();
@@ -131,9 +137,9 @@ TEST(MemoryEstimate, SolverReleasesWhatItDoesNotRead) {
   EXPECT_EQ(solver.virtual_from_real().offsets.size(), virtual_particles.size() + 1);
 
   auto kept = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
-                                   [](SolverSettings<2>& settings) {
+                                   [&current](SolverSettings<2>& settings) {
+                                     current(settings);
                                      settings.keep_virtual_fields = true;
-                                     settings.neighbor_skin = 0.05;
                                    });
   auto stiff = bench::make_block<2>(900, 1.2, Kinematics::updated_lagrangian, [](ParticleSet<2>&, double) {},
                                     [](SolverSettings<2>& settings) { settings.hourglass_stiffness = 0.05; });

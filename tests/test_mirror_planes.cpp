@@ -184,11 +184,13 @@ void expect_round_off(const Agreement& a) {
 // at each search, at the current positions).
 // The whole rod moves its Shepard surface rows as the model with planes does
 // (SolverSettings::surface_motion: shepard with mirror planes).
-const std::vector<std::string> kShepardSurfaceMotion{"method.surface_motion=\"shepard\""};
+const std::vector<std::string> kCurrentKernel{"method.kernel_configuration=\"current\""};
+const std::vector<std::string> kShepardSurfaceMotion{"method.surface_motion=\"shepard\"",
+                                                     "method.kernel_configuration=\"current\""};
 
 TEST(MirrorPlanes, QuarterRodIsTheWholeRod) {
   const LastFrame whole = run_text(rod_text(false), "rod_whole", kShepardSurfaceMotion);
-  const LastFrame quarter = run_text(rod_text(true), "rod_quarter");
+  const LastFrame quarter = run_text(rod_text(true), "rod_quarter", kCurrentKernel);
   ASSERT_EQ(whole.count, 13u * 11u * 11u);
   ASSERT_EQ(quarter.count, 13u * 6u * 6u);
   const Agreement a = compare(whole, quarter, 0.01);
@@ -211,7 +213,7 @@ TEST(MirrorPlanes, QuarterRodIsTheWholeRodWithTheTaylorBarsMethod) {
 // One plane (a half model), the kernel in the current configuration.
 TEST(MirrorPlanes, HalfRodIsTheWholeRod) {
   const LastFrame whole = run_text(rod_text(false), "rod_whole_half", kShepardSurfaceMotion);
-  const LastFrame half = run_text(rod_text(false, true), "rod_half");
+  const LastFrame half = run_text(rod_text(false, true), "rod_half", kCurrentKernel);
   ASSERT_EQ(half.count, 13u * 11u * 6u);
   expect_round_off(compare(whole, half, 0.01));
   expect_energy_share("rod_whole_half", "rod_half", 2.0);

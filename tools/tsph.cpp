@@ -120,8 +120,14 @@ void print_overview(const CaseFile& c, const CaseOverview& v) {
   // The method: the automatic options as the run resolves them (docs/cases.md, Automatic defaults).
   const ResolvedMethodOptions m = resolved_method_options(c);
   const auto automatic = [](bool is) { return is ? " (automatic)" : ""; };
-  fmt::print("  method: {}, surface filter {}{}, hourglass stiffness {}{}, walls {}{}, surface extrapolation {}{}\n",
-             to_string(c.kinematics), m.hourglass, automatic(c.hourglass == kAutomaticOption), m.hourglass_stiffness,
+  fmt::print("  method: {}{}, surface filter {}{}, hourglass stiffness {}{}, walls {}{}, surface extrapolation {}{}\n",
+             to_string(c.kinematics),
+             c.kinematics == Kinematics::updated_lagrangian
+                 ? (c.kernel_configuration == "current"
+                        ? fmt::format(" (kernel in the current configuration, neighbour skin {})", c.neighbor_skin)
+                        : std::string(" (kernel in the reference configuration)"))
+                 : std::string(),
+             m.hourglass, automatic(c.hourglass == kAutomaticOption), m.hourglass_stiffness,
              automatic(c.hourglass_stiffness == kAutomaticOption),
              m.wall_gradient ? "wall_gradient" : "characteristics",
              automatic(c.velocity_wall == CaseFile::VelocityWall::automatic), m.surface_extrapolation ? "on" : "off",

@@ -372,7 +372,7 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       "\"spacing\": {}, \"smoothing_length\": {}, \"alpha\": {}, \"kernel\": {}, \"interpolation\": {}, "
       "\"kinematics\": {}, \"E\": {}, \"nu\": {}, \"rho\": {}, \"plane\": {}, \"p_wave_speed\": {}, "
       "\"dt\": {}, \"cfl\": {}, \"end_time\": {}, \"damping\": {}, \"hourglass\": {}, "
-      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"free_edge_uniaxial\": {}, \"neighbor_skin\": {}, "
+      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"free_edge_uniaxial\": {}, \"kernel_configuration\": {}, \"neighbor_skin\": {}, "
       "\"threads\": {}}},\n"
       "  \"time\": {},\n  \"steps\": {},\n  \"neighbor_builds\": {},\n  \"wall_seconds\": {},\n  \"particle_steps_per_second\": {},\n"
       "  \"output_frames\": {},\n  \"output_writer_seconds\": {},\n  \"output_wait_seconds\": {},\n"
@@ -390,7 +390,11 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       json_number(resolved.hourglass_stiffness),
       json_string(resolved.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics"),
       resolved.surface_extrapolation == Toggle::on ? "true" : "false", resolved.free_edge_uniaxial == Toggle::on ? "true" : "false",
-      json_number(c.neighbor_skin),
+      // The kernel's configuration and the skin in effect: small strain evaluates the kernel
+      // at X, and only the current kernel of updated Lagrangian has a skin.
+      json_string(c.kinematics == Kinematics::updated_lagrangian ? c.kernel_configuration : std::string("reference")),
+      json_number(c.kinematics == Kinematics::updated_lagrangian && c.kernel_configuration == "current" ? c.neighbor_skin
+                                                                                                        : 0.0),
       thread_count(),
       json_number(r.time), r.steps, r.neighbor_builds, json_number(r.wall_seconds), json_number(r.particle_steps_per_second),
       r.frames, json_number(r.output_busy_seconds), json_number(r.output_wait_seconds), errors);

@@ -142,9 +142,11 @@ struct SolverSettings {
   /// The full step's real -> virtual list is the transpose of the half step's list
   /// instead of a second search (both then held at once). Off by default.
   bool transpose_lists = false;
-  /// Verlet skin of the updated-Lagrangian neighbour lists, a fraction of 2h in [0, 1]:
-  /// lists searched with radius (1 + s) 2h and kept until a pair may have come closer by
-  /// more than s 2h (solver/neighbor_lists.hpp). 0: searched at every use.
+  /// Verlet skin of the updated-Lagrangian neighbour lists with the kernel in the current
+  /// configuration (the reference kernel, the default, searches its lists once and
+  /// ignores it), a fraction of 2h in [0, 1]: lists searched with radius (1 + s) 2h and
+  /// kept until a pair may have come closer by more than s 2h
+  /// (solver/neighbor_lists.hpp). 0: searched at every use.
   double neighbor_skin = 0.05;
   /// Both particle sets are sorted into this order when the mean index spread of the
   /// virtual -> real rows exceeds `reorder_threshold` times that of the sorted order
@@ -232,7 +234,8 @@ struct SolverCounters {
   /// Renumberings of the particle sets: the sorts and TaylorSph::permute_particles.
   std::int64_t renumberings = 0;
   /// Checks of the displacement since the last search (SolverSettings::neighbor_skin):
-  /// two per updated-Lagrangian step.
+  /// two per updated-Lagrangian step with the kernel in the current configuration, none
+  /// with the reference kernel (its lists are never searched again).
   std::int64_t skin_checks = 0;
 };
 
