@@ -122,10 +122,9 @@ void print_overview(const CaseFile& c, const CaseOverview& v) {
   const auto automatic = [](bool is) { return is ? " (automatic)" : ""; };
   fmt::print("  method: {}{}, surface filter {}{}, hourglass stiffness {}{}, walls {}{}, surface extrapolation {}{}\n",
              to_string(c.kinematics),
-             c.kinematics == Kinematics::updated_lagrangian
-                 ? (c.kernel_configuration == "current"
-                        ? fmt::format(" (kernel in the current configuration, neighbour skin {})", c.neighbor_skin)
-                        : std::string(" (kernel in the reference configuration)"))
+             m.reference_lists ? std::string(" (kernel in the reference configuration)")
+             : c.kinematics == Kinematics::updated_lagrangian
+                 ? fmt::format(" (kernel in the current configuration, neighbour skin {})", m.neighbor_skin)
                  : std::string(),
              m.hourglass, automatic(c.hourglass == kAutomaticOption), m.hourglass_stiffness,
              automatic(c.hourglass_stiffness == kAutomaticOption),

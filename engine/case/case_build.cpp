@@ -195,9 +195,15 @@ ResolvedMethodOptions resolved_method_options_in(const CaseFile& c) {
   SolverSettings<Dim> settings;
   set_automatic_options(c, settings);
   settings = resolve_automatic_options(settings, c.plasticity.model != "elastic");  // Material::plastic()
-  return {settings.hourglass_coefficient, settings.hourglass_stiffness,
+  const bool moving = c.kinematics == Kinematics::updated_lagrangian;
+  const bool reference_lists = moving && c.kernel_configuration == "reference";
+  return {settings.hourglass_coefficient,
+          settings.hourglass_stiffness,
           settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient,
-          settings.surface_extrapolation == Toggle::on, settings.free_edge_uniaxial == Toggle::on};
+          settings.surface_extrapolation == Toggle::on,
+          settings.free_edge_uniaxial == Toggle::on,
+          reference_lists,
+          moving && !reference_lists ? c.neighbor_skin : 0.0};
 }
 
 }  // namespace

@@ -41,15 +41,22 @@ struct BuiltCase {
 template <int Dim>
 BuiltCase<Dim> build_case(const CaseFile& c);
 
-/// The four automatic method options of a case as the run resolves them (the solver's
-/// rule, resolve_automatic_options): for the memory estimate, the restart record and
-/// `tsph check`, which read the case before a solver exists.
+/// The automatic method options of a case as the run resolves them (the solver's rule,
+/// resolve_automatic_options), and the neighbour lists it keeps: for the memory estimate,
+/// the restart record, summary.json and `tsph check`, which read the case before a
+/// solver exists.
 struct ResolvedMethodOptions {
   double hourglass = 0.0;
   double hourglass_stiffness = 0.0;
   bool wall_gradient = false;
   bool surface_extrapolation = false;
   bool free_edge_uniaxial = false;
+  /// Updated Lagrangian with the kernel in the reference configuration (the default):
+  /// the lists of X, searched once (SolverState::reference_kernel).
+  bool reference_lists = false;
+  /// The Verlet skin in effect: the case's with the current kernel of updated
+  /// Lagrangian, else 0 (its lists never move, or are never searched again).
+  double neighbor_skin = 0.0;
 };
 ResolvedMethodOptions resolved_method_options(const CaseFile& c);
 

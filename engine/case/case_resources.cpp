@@ -114,12 +114,10 @@ ResourceEstimate estimate(const CaseFile& c) {
   // virtual set as about as large), the snapshot the background writer holds, and a
   // checkpoint in the making (a copy of both sets, its byte buffer and the string
   // handed to the writer); the frame bookkeeping is held once more by the run.
-  const bool moving = c.kinematics == Kinematics::updated_lagrangian;
-  const double skin = moving ? c.neighbor_skin : 0.0;
-  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, c.transpose_lists, skin, c.output_virtual,
-                                                       c.energy_every > 0,
-                                                       resolved_method_options(c).hourglass_stiffness > 0.0,
-                                                       moving && c.kernel_configuration == "reference") *
+  const ResolvedMethodOptions m = resolved_method_options(c);
+  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, c.transpose_lists, m.neighbor_skin, c.output_virtual,
+                                                       c.energy_every > 0, m.hourglass_stiffness > 0.0,
+                                                       m.reference_lists) *
                        std::max(e.real_particles, e.virtual_particles) +
                    e.frame_bytes + 3.0 * (e.checkpoint_bytes - bookkeeping) + 4.0 * bookkeeping;
   return e;

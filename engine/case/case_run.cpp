@@ -393,8 +393,7 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       // The kernel's configuration and the skin in effect: small strain evaluates the kernel
       // at X, and only the current kernel of updated Lagrangian has a skin.
       json_string(c.kinematics == Kinematics::updated_lagrangian ? c.kernel_configuration : std::string("reference")),
-      json_number(c.kinematics == Kinematics::updated_lagrangian && c.kernel_configuration == "current" ? c.neighbor_skin
-                                                                                                        : 0.0),
+      json_number(resolved_method_options(c).neighbor_skin),
       thread_count(),
       json_number(r.time), r.steps, r.neighbor_builds, json_number(r.wall_seconds), json_number(r.particle_steps_per_second),
       r.frames, json_number(r.output_busy_seconds), json_number(r.output_wait_seconds), errors);
