@@ -286,15 +286,16 @@ TEST(PlateValidation, Registered) {
   EXPECT_FALSE(find_case(plate, "plate_small").slow);
   EXPECT_TRUE(find_case(plate, "plate_large").slow);
   const auto column = validate::column_cases();
-  ASSERT_EQ(column.size(), 1u);
-  EXPECT_EQ(column[0].name, "twisting_column");
+  ASSERT_EQ(column.size(), 2u);
+  EXPECT_EQ(column[0].name, "twisting_column_alpha0.6");
+  EXPECT_EQ(column[1].name, "twisting_column_alpha1.2");
 }
 
 /// What every result must hold whatever the method does: one check per figure with its
 /// reference and tolerance, a note per run, and series whose rows match their columns.
 /// Whether the checks pass is the verdict `tsph validate` reports (ctest
-/// validate_quick_<case>; plate_small passes, plate_large and twisting_column fail at
-/// alpha 1.2 and 0.6: docs/validation.md). The Quick tests here carry the label slow
+/// validate_quick_<case>; plate_small passes, plate_large fails at alpha 1.2 and
+/// twisting_column_alpha0.6 fails: docs/validation.md). The Quick tests here carry the label slow
 /// (tests/CMakeLists.txt): they run what validate_quick_<case> runs.
 void expect_well_formed(const validate::Result& r, std::size_t checks, std::size_t notes,
                         const std::vector<std::string>& series) {
@@ -326,9 +327,12 @@ TEST(PlateValidation, QuickLarge) {
   const auto r = run_validation(find_case(validate::plate_cases(), "plate_large"), true);
   expect_well_formed(r, 6, 2, {"tip_vy", "energy", "hourglass"});
 }
+// Stable, no energy gain, no hourglass, and the tip's first peak within 25 % of the
+// linear mode's (the quick grid: +18.7 % at alpha 1.2 on 2026-11-29).
 TEST(ColumnValidation, Quick) {
-  const auto r = run_validation(find_case(validate::column_cases(), "twisting_column"), true);
-  expect_well_formed(r, 6, 3, {"tip_rotation", "angular_momentum", "hourglass", "energy"});
+  const auto r = run_validation(find_case(validate::column_cases(), "twisting_column_alpha1.2"), true);
+  expect_well_formed(r, 4, 2, {"tip_rotation", "angular_momentum", "hourglass", "energy"});
+  for (const auto& c : r.checks) EXPECT_TRUE(c.pass) << c.figure << ": " << c.value;
 }
 
 // The shipped 3D cantilever in updated Lagrangian (tsph validate cantilever_3d_ul, quick:
