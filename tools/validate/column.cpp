@@ -162,8 +162,7 @@ Result twisting_column(const Options& o, double alpha) {
       period, column.linear_tip_rotation(omega0)));
   std::vector<ColumnRun> runs;
   for (double dx : spacings)
-    runs.push_back(run_column(o, alpha, dx, end_time,
-                                static_cast<int>(std::lround(end_time / period * frames_per_period)),
+    runs.push_back(run_column(o, alpha, dx, end_time, static_cast<int>(std::lround(end_time / period * frames_per_period)),
                               fmt::format("dx{:.4f}_alpha{:.1f}", dx, alpha)));
   for (const auto& r : runs) {
     const std::string where = fmt::format("{}, dx = {:.4g}", alpha_label(r.alpha), r.dx);
@@ -209,16 +208,11 @@ Result twisting_column(const Options& o, double alpha) {
       result.checks.push_back(c);
     }
     const auto [peak, peak_time] = first_peak(r);
-    {
-      Check c;
-      c.figure = fmt::format("first peak of the tip rotation (rad) against the linear mode's omega0 / omega_t, {}", where);
-      c.value = peak;
-      c.reference = column.linear_tip_rotation(omega0);
-      c.error = std::abs(peak / c.reference - 1.0);
-      c.tolerance = o.quick ? 0.25 : 0.10;
-      c.pass = !r.diverged && std::isfinite(peak) && c.error <= c.tolerance;
-      result.checks.push_back(c);
-    }
+    Check tip = relative_check(
+        fmt::format("first peak of the tip rotation (rad) against the linear mode's omega0 / omega_t, {}", where), peak,
+        column.linear_tip_rotation(omega0), o.quick ? 0.25 : 0.10);
+    tip.pass = tip.pass && !r.diverged;
+    result.checks.push_back(tip);
     const double final_energy =
         r.energies.empty() ? std::nan("")
                            : (r.energies.back().kinetic_node_and_cell + r.energies.back().strain_node_and_cell) /
@@ -239,14 +233,10 @@ Result twisting_column(const Options& o, double alpha) {
   if (!o.quick && runs.size() == 2) {
     // Convergence: the tip rotation's first peak at the coarse spacing against the fine one.
     const auto coarse = first_peak(runs[0]), fine = first_peak(runs[1]);
-    Check c;
-    c.figure = fmt::format("first peak of the tip rotation (rad), dx = {:.4g} against dx = {:.4g}, {}", runs[0].dx,
-                           runs[1].dx, alpha_label(alpha));
-    c.value = coarse.first;
-    c.reference = fine.first;
-    c.error = std::abs(coarse.first / fine.first - 1.0);
-    c.tolerance = 0.10;
-    c.pass = !runs[0].diverged && !runs[1].diverged && std::isfinite(c.error) && c.error <= c.tolerance;
+    Check c = relative_check(fmt::format("first peak of the tip rotation (rad), dx = {:.4g} against dx = {:.4g}, {}",
+                                         runs[0].dx, runs[1].dx, alpha_label(alpha)),
+                             coarse.first, fine.first, 0.10);
+    c.pass = c.pass && !runs[0].diverged && !runs[1].diverged;
     if (!std::isfinite(c.reference)) {  // the fine run has no peak (it diverged before it): fails
       c.reference = 0.0;
       result.notes.push_back(fmt::format("{}: no tip rotation peak at dx = {:.4g}: the convergence check fails "
