@@ -12,6 +12,7 @@
 #include "engine/particle_set.hpp"
 #include "engine/time_function.hpp"
 
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <cstdint>
@@ -47,6 +48,12 @@ struct BoundaryCondition {
   /// the body (the body lies on the side (x - point) . normal <= 0).
   Vector<Dim> plane_point = Vector<Dim>::Zero();
   Vector<Dim> plane_normal = Vector<Dim>::Zero();
+
+  /// Whether the prescribed vector is zero at all times (a fixed wall or plane, a free
+  /// surface): every time function zero and no field.
+  bool prescribes_zero() const {
+    return !field && std::all_of(time.begin(), time.end(), [](const TimeFunction& f) { return f.is_zero(); });
+  }
 
   /// The prescribed vector at a particle of initial position x0, with profile(x0) given.
   Vector<Dim> prescribed(const Vector<Dim>& x0, const Vector<Dim>& profile_at_x0, double t) const {

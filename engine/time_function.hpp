@@ -63,6 +63,12 @@ class TimeFunction {
 
   Kind kind() const { return kind_; }
 
+  /// Whether f(t) = 0 for every t (a zero amplitude, or a table of zeros).
+  bool is_zero() const {
+    if (kind_ == Kind::table) return std::all_of(values_.begin(), values_.end(), [](double v) { return v == 0.0; });
+    return amplitude_ == 0.0;
+  }
+
   /// int_0^t f(s) ds (t >= 0; 0 for t < 0), exact for every kind: a velocity gradient
   /// scaled by f moves the material along exp(G int_0^t f) (engine/affine_motion.hpp). The
   /// pulse is integrated over [t_start, t_end] exactly (operator() switches 1e-9 of the

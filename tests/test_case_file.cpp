@@ -591,8 +591,8 @@ TEST_F(CaseFileTest, CheckpointRoundTripIsExactAndDamageIsRefused) {
 
 // The automatic method options (resolve_automatic_options): an elastic material in 2D or
 // 3D takes the surface filter 0.02, the wall-gradient clamp, the hourglass stiffness 0.05
-// and the surface extrapolation; 1D and plastic materials none; a value the caller set is
-// kept. The case layer (resolved_method_options: memory estimate, restart record) and the
+// and the surface extrapolation; a plastic material in 2D or 3D the wall gradient alone
+// (2026-12-06: the smooth footing); 1D none; a value the caller set is kept. The case layer (resolved_method_options: memory estimate, restart record) and the
 // builder agree with the solver.
 TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
   using S2 = SolverSettings<2>;
@@ -607,7 +607,9 @@ TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
   const S2 elastic = resolve_automatic_options(S2{}, false);
   expect_settings(elastic, 0.02, 0.05, true, true);
   expect_settings(resolve_automatic_options(SolverSettings<3>{}, false), 0.02, 0.05, true, true);
-  expect_settings(resolve_automatic_options(S2{}, true), 0.0, 0.0, false, false);
+  expect_settings(resolve_automatic_options(S2{}, true), 0.0, 0.0, true, false);
+  expect_settings(resolve_automatic_options(SolverSettings<3>{}, true), 0.0, 0.0, true, false);
+  expect_settings(resolve_automatic_options(SolverSettings<1>{}, true), 0.0, 0.0, false, false);
   expect_settings(S2::bare_scheme(), 0.0, 0.0, false, false);
   expect_settings(resolve_automatic_options(SolverSettings<1>{}, false), 0.0, 0.0, false, false);
   S2 set;
@@ -635,8 +637,8 @@ TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
   EXPECT_EQ(solver_settings.hourglass_coefficient, 0.02);
   EXPECT_EQ(solver_settings.hourglass_stiffness, 0.05);
   expect_options(load_case((kCases / "bar.toml").string()), 0.0, 0.0, false, false);
-  const CaseFile footing = load_case((kCases / "footing_2d.toml").string(), {"geometry.spacing=0.5"});
-  expect_options(footing, 0.0, 0.0, false, false);
+  const CaseFile footing = load_case((kCases / "footing_2d.toml").string(), {"geometry.spacing=0.1"});
+  expect_options(footing, 0.0, 0.0, true, false);
   expect_options(load_case((kCases / "cantilever_2d.toml").string(), {"method.hourglass_stiffness=0.01"}), 0.02, 0.01,
                  true, true);
 

@@ -363,9 +363,15 @@ struct SolverState {
     if (!mirror.active()) return;
     if (mirror.planes.size() > 8) throw std::invalid_argument("solver: at most 8 mirror planes");
     // The surface treatments (an elastic material's automatic defaults), then the others.
+    // The wall gradient acts on velocity walls and moving smooth walls only: without
+    // either (a quarter Taylor bar) it is no option to refuse.
+    const bool wall_gradient_acts = std::any_of(boundaries.begin(), boundaries.end(), [](const auto& c) {
+      return c.kind == BoundaryCondition<Dim>::Kind::velocity ||
+             (c.kind == BoundaryCondition<Dim>::Kind::symmetry && !c.prescribes_zero());
+    });
     const std::array<bool, 4> treatment_on = {
         settings.surface_extrapolation == Toggle::on, settings.hourglass_coefficient > 0,
-        settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient,
+        settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient && wall_gradient_acts,
         settings.free_edge_uniaxial == Toggle::on};
     const std::array<const char*, 4> treatment_key = {"method.surface_extrapolation", "method.hourglass",
                                                       "method.velocity_wall = \"wall_gradient\"",

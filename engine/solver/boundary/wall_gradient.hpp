@@ -39,6 +39,39 @@ struct WallGradient {
       state.real.volume[i] = state.real.mass[i] / state.real.density[i];
     }
   }
+
+  /// The same at a particle on a symmetry plane (a smooth wall) of unit normal n: only
+  /// the normal velocity is the wall's, w . n (0 for a fixed plane, a footing's), so the
+  /// gradient is taken relative to it along n alone,
+  ///     grad v + ((v(x_I) - w) . n) n (x) sum_J V_J Gn_IJ,
+  /// the stress updated by the bulk rule, then its shear traction on the plane removed,
+  /// sigma <- P sigma P + (n . sigma n) n n^T with P = I - n n^T; the velocity at n+1 is the
+  /// full step's along the plane and the wall's across it.
+  template <class Model>
+  static void apply_symmetry(SolverState<Dim>& state, const Model& model, std::size_t b, std::uint32_t i,
+                             const BoundaryCondition<Dim>& condition, const Vec& n, double dt, double t_new) {
+    const Vec wall_half = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new - 0.5 * dt);
+    const double relative = (state.boundary.half_velocity[b] - wall_half).dot(n);
+    const Mat gradient =
+        state.boundary.half_velocity_gradient[b] + relative * n * state.boundary.gradient_sum[b].transpose();
+    const StressVector<Dim>& previous = state.boundary.stress[b];
+    (void)model;
+    StressVector<Dim> stress = state.update_real_stress(i, {previous, previous, gradient, dt, state.objective_rates()}, true);
+    Mat in_plane = to_tensor<Dim>(stress).template topLeftCorner<Dim, Dim>();
+    const Mat projector = Mat::Identity() - n * n.transpose();
+    in_plane = projector * in_plane * projector + n.dot(in_plane * n) * (n * n.transpose());
+    for (int r = 0; r < Dim; ++r)
+      for (int c = r; c < Dim; ++c) stress[stress_index<Dim>(r, c)] = in_plane(r, c);
+    for (int m = 0; m < stress_count; ++m) state.real.stress[m][i] = stress[m];
+    const Vec w = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
+    Vec v = state.velocity_of(i);
+    v += (w.dot(n) - v.dot(n)) * n;
+    for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = v[d];
+    if (state.density_follows()) {
+      state.real.density[i] = state.boundary.density[b] * std::exp(-dt * gradient.trace());
+      state.real.volume[i] = state.real.mass[i] / state.real.density[i];
+    }
+  }
 };
 
 }  // namespace tsph
