@@ -130,7 +130,19 @@ std::string physics_record(const CaseFile& c) {
   r.add("method.hourglass_stiffness", options.hourglass_stiffness);
   // With the stiffness on only: a checkpoint of a run without it still matches.
   if (options.hourglass_stiffness > 0.0) r.add_text("method.hourglass_kick", c.hourglass_kick);
-  r.add_text("method.velocity_wall", options.wall_gradient ? "wall_gradient" : "characteristics");
+  // The wall gradient acts on velocity walls ("fixed", "velocity") and moving smooth
+  // walls only. Where there is none, an automatic velocity_wall records the rule of
+  // before 2026-12-06 (the wall gradient for an elastic material in 2D and 3D only), so
+  // that a plastic run's checkpoint of then (the Taylor bar) still matches.
+  bool wall_acts = false;
+  for (const auto& b : c.boundaries)
+    wall_acts = wall_acts || b.type == "fixed" || b.type == "velocity" ||
+                (b.type == "symmetry" && std::any_of(b.value.begin(), b.value.end(), [](double v) { return v != 0.0; }));
+  const bool recorded_wall_gradient =
+      c.velocity_wall == CaseFile::VelocityWall::automatic && !wall_acts
+          ? takes_elastic_treatments(c.dimension, c.plasticity.model != "elastic")
+          : options.wall_gradient;
+  r.add_text("method.velocity_wall", recorded_wall_gradient ? "wall_gradient" : "characteristics");
   r.add("method.surface_extrapolation", options.surface_extrapolation);
   r.add("method.material_velocity_motion", c.material_velocity_motion);
   // Updated Lagrangian only (the key moves nothing in small strain): a small-strain

@@ -203,7 +203,8 @@ constexpr bool takes_elastic_treatments(bool plastic) {
 ///    0.01). The surface treatments are left off with it, so that a quarter model
 ///    with mirror planes, which cannot carry them, runs the whole model's method.
 /// Mirror planes with an elastic material in 2D or 3D: the automatic surface treatments
-/// are refused there with the keys to set (SolverState::check_mirror_planes).
+/// are refused there with the keys to set (SolverState::check_mirror_planes); with any
+/// material the wall gradient, where a velocity wall or a moving smooth wall acts.
 template <int Dim>
 SolverSettings<Dim> resolve_automatic_options(SolverSettings<Dim> settings, bool plastic) {
   const bool treatments = takes_elastic_treatments<Dim>(plastic);

@@ -255,12 +255,15 @@ struct SolverState {
         material(std::move(model)),
         settings(std::move(run_settings)),
         boundaries(std::move(conditions)) {
-    // Which surface treatments the run takes by default (the mirror planes' message).
+    // Which surface treatments the run takes by default (the mirror planes' message); the
+    // wall gradient every material in 2D and 3D.
     if (takes_elastic_treatments<Dim>(material.plastic()))
       automatic_surface_treatments_ = {settings.surface_extrapolation == Toggle::automatic,
                                        settings.hourglass_coefficient == kAutomaticOption,
                                        settings.velocity_wall == SolverSettings<Dim>::VelocityWall::automatic,
                                        Dim == 3 && settings.free_edge_uniaxial == Toggle::automatic};
+    else
+      automatic_surface_treatments_[2] = Dim >= 2 && settings.velocity_wall == SolverSettings<Dim>::VelocityWall::automatic;
     settings = resolve_automatic_options(settings, material.plastic());
     check_settings();
     real.check_field_sizes("solver: the real set");
@@ -391,12 +394,15 @@ struct SolverState {
           " is not available with mirror planes yet (it reads per-boundary-particle state that the ghosts do not "
           "carry): turn it off, or model the whole body" +
           (option == surface_treatment && treatment_automatic
-               ? std::string(" (an elastic material in 2D and 3D takes the surface treatments by default: set "
-                             "method.hourglass = 0, method.velocity_wall = \"characteristics\" and "
-                             "method.surface_extrapolation = false" +
-                             std::string(Dim == 3 ? ", and in 3D method.free_edge_uniaxial = false" : "") +
-                             "; the whole body's default also has "
-                             "method.hourglass_stiffness = 0.05, which mirror planes keep)")
+               ? (takes_elastic_treatments<Dim>(material.plastic())
+                      ? std::string(" (an elastic material in 2D and 3D takes the surface treatments by default: set "
+                                    "method.hourglass = 0, method.velocity_wall = \"characteristics\" and "
+                                    "method.surface_extrapolation = false" +
+                                    std::string(Dim == 3 ? ", and in 3D method.free_edge_uniaxial = false" : "") +
+                                    "; the whole body's default also has "
+                                    "method.hourglass_stiffness = 0.05, which mirror planes keep)")
+                      : std::string(" (every material in 2D and 3D takes it by default for its velocity walls and "
+                                    "moving smooth walls: set method.velocity_wall = \"characteristics\")"))
                : std::string()));
     if (find_driven_condition() >= 0)
       throw std::invalid_argument("solver: mirror planes in a driven body (one velocity condition on every "

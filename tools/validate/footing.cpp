@@ -98,7 +98,7 @@ Result run_footing(const Options& o) {
   // engine/solver/energy_ledger.hpp) against the footing's work: the 1 %, checked
   // in the full version. Since the footing's stress is updated relative to the wall
   // (2026-12-06, boundary/wall_gradient.hpp) the error is -0.3 % at dx = B / 4 and
-  // -2.3 % at B / 10 (CFL 0.9; +5.2 % and +3.7 % at CFL 0.45); by the characteristic
+  // -2.3 % at B / 10 (CFL 0.9; +5.4 % and +3.7 % at CFL 0.45); by the characteristic
   // relations it was -45 % and -18 % (docs/notes/2026-12-06-smooth-footing.md).
   if (!run.energy.empty()) {
     const auto last = [&](const char* name) { return run.energy.at(name).back(); };

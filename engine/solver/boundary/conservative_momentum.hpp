@@ -75,7 +75,7 @@ class ConservativeMomentum {
     const ParticleView<Dim> source = state.virtual_.view();
     parallel_for(state.real.size(), [&](std::size_t i) {
       const std::int32_t b = state.boundary.slot[i];
-      bool on_own_plane = false;  // a fixed symmetry plane (a moving wall keeps its characteristics)
+      bool on_own_plane = false;  // a fixed symmetry plane (a moving wall keeps its boundary stage's velocity)
       if (b >= 0) {
         const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
         if (condition.kind == BoundaryCondition<Dim>::Kind::velocity) return;

@@ -44,9 +44,11 @@ struct WallGradient {
   /// the normal velocity is the wall's, w . n (0 for a fixed plane, a footing's), so the
   /// gradient is taken relative to it along n alone,
   ///     grad v + ((v(x_I) - w) . n) n (x) sum_J V_J Gn_IJ,
-  /// the stress updated by the bulk rule, then its shear traction on the plane removed,
-  /// sigma <- P sigma P + (n . sigma n) n n^T with P = I - n n^T; the velocity at n+1 is the
-  /// full step's along the plane and the wall's across it.
+  /// the stress updated elastically by the bulk rule, its shear traction on the plane
+  /// removed, sigma <- P sigma P + (n . sigma n) n n^T with P = I - n n^T, and then (a
+  /// plastic material) returned to the yield surface with the particle's state at n, as
+  /// the characteristic relations' stress is: the plastic state books the stress that is
+  /// kept. The velocity at n+1 is the full step's along the plane and the wall's across it.
   template <class Model>
   static void apply_symmetry(SolverState<Dim>& state, const Model& model, std::size_t b, std::uint32_t i,
                              const BoundaryCondition<Dim>& condition, const Vec& n, double dt, double t_new) {
@@ -56,12 +58,13 @@ struct WallGradient {
         state.boundary.half_velocity_gradient[b] + relative * n * state.boundary.gradient_sum[b].transpose();
     const StressVector<Dim>& previous = state.boundary.stress[b];
     (void)model;
-    StressVector<Dim> stress = state.update_real_stress(i, {previous, previous, gradient, dt, state.objective_rates()}, true);
+    StressVector<Dim> stress = state.material.elastic().update_stress({previous, previous, gradient, dt, state.objective_rates()});
     Mat in_plane = to_tensor<Dim>(stress).template topLeftCorner<Dim, Dim>();
     const Mat projector = Mat::Identity() - n * n.transpose();
     in_plane = projector * in_plane * projector + n.dot(in_plane * n) * (n * n.transpose());
     for (int r = 0; r < Dim; ++r)
       for (int c = r; c < Dim; ++c) stress[stress_index<Dim>(r, c)] = in_plane(r, c);
+    stress = state.return_real_stress(i, stress, dt);
     for (int m = 0; m < stress_count; ++m) state.real.stress[m][i] = stress[m];
     const Vec w = condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
     Vec v = state.velocity_of(i);
