@@ -55,6 +55,9 @@ struct BoundaryCondition {
     return !field && std::all_of(time.begin(), time.end(), [](const TimeFunction& f) { return f.is_zero(); });
   }
 
+  /// A smooth wall that moves (a symmetry condition with a velocity: a footing).
+  bool moving_smooth_wall() const { return kind == Kind::symmetry && !prescribes_zero(); }
+
   /// The prescribed vector at a particle of initial position x0, with profile(x0) given.
   Vector<Dim> prescribed(const Vector<Dim>& x0, const Vector<Dim>& profile_at_x0, double t) const {
     if (field) return field(x0, t);

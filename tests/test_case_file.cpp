@@ -592,8 +592,9 @@ TEST_F(CaseFileTest, CheckpointRoundTripIsExactAndDamageIsRefused) {
 // The automatic method options (resolve_automatic_options): an elastic material in 2D or
 // 3D takes the surface filter 0.02, the wall-gradient clamp, the hourglass stiffness 0.05
 // and the surface extrapolation; a plastic material in 2D or 3D the wall gradient alone
-// (2026-12-06: the smooth footing); 1D none; a value the caller set is kept. The case layer (resolved_method_options: memory estimate, restart record) and the
-// builder agree with the solver.
+// (2026-12-06: the smooth footing); 1D none; a value the caller set is kept. The case
+// layer (resolved_method_options: memory estimate, restart record) and the builder agree
+// with the solver.
 TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
   using S2 = SolverSettings<2>;
   // The four options of resolved settings s: filter, stiffness, wall gradient, extrapolation.

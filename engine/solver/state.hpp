@@ -369,8 +369,7 @@ struct SolverState {
     // The wall gradient acts on velocity walls and moving smooth walls only: without
     // either (a quarter Taylor bar) it is no option to refuse.
     const bool wall_gradient_acts = std::any_of(boundaries.begin(), boundaries.end(), [](const auto& c) {
-      return c.kind == BoundaryCondition<Dim>::Kind::velocity ||
-             (c.kind == BoundaryCondition<Dim>::Kind::symmetry && !c.prescribes_zero());
+      return c.kind == BoundaryCondition<Dim>::Kind::velocity || c.moving_smooth_wall();
     });
     const std::array<bool, 4> treatment_on = {
         settings.surface_extrapolation == Toggle::on, settings.hourglass_coefficient > 0,

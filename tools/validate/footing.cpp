@@ -19,6 +19,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kFrames = 100;  ///< frames of the load-settlement curve
+constexpr double kHalfSpan = 5.0, kDepth = 4.0;  ///< the block: 10 B wide (+ dx, below), 4 B deep (B = 1 m)
 
 Result run_footing(const Options& o) {
   // Full: dx = B / 10 to 5 s (settlement 0.095 B); quick: dx = B / 4 to 4 s. Both
@@ -28,9 +29,9 @@ Result run_footing(const Options& o) {
   // The lattice's nodes at x = +-dx/2, +-3 dx/2, ...: the footing's particles (|x| <= B/2)
   // carry faces of width dx that add up to B (nodes on x = +-B/2 would carry B + dx: the
   // plateau +34 % at B/4, +14 % at B/10). The block spans 10 B + dx.
-  const double half_span = 5.0 + 0.5 * dx;
+  const double half_span = kHalfSpan + 0.5 * dx;
   std::vector<std::string> overrides = {fmt::format("geometry.spacing={}", dx), fmt::format("time.end={}", end),
-                                        fmt::format("geometry.box.lower=[{},-4.0]", -half_span),
+                                        fmt::format("geometry.box.lower=[{},{}]", -half_span, -kDepth),
                                         fmt::format("geometry.box.upper=[{},0.0]", half_span), output_times(end, kFrames)};
   CaseRun run = run_case_file(o, "footing_2d.toml", overrides, "run");
   Result result;

@@ -198,12 +198,12 @@ struct CharacteristicBoundary {
       // B/4) and lost 81 % of it (45 % on Tresca soil), at the footing's edges; relative
       // to the wall the work is 23 215 / 23 437 J/m, as a rough footing's, and the Tresca
       // footing's balance error -0.3 % at B/4, -2.3 % at B/10 (before: -45 %, -18 %;
-      // docs/notes/2026-12-06-smooth-footing.md). A fixed
-      // plane keeps the characteristic relations, exact for a 1D impact: relative to the
-      // wall the Taylor bar's impact face is crushed at 43 us (R0 / 4).
+      // docs/notes/2026-12-06-smooth-footing.md). A fixed plane keeps the characteristic
+      // relations, exact for a 1D impact: relative to the wall the Taylor bar's impact
+      // face is crushed at 43 us (R0 / 4).
       if (state.settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient &&
-          condition.kind == BoundaryCondition<Dim>::Kind::symmetry && !condition.prescribes_zero()) {
-        WallGradient<Dim>::apply_symmetry(state, model, b, i, condition, state.boundary.normal[b], dt, t_new);
+          condition.moving_smooth_wall()) {
+        WallGradient<Dim>::apply_smooth_wall(state, b, i, condition, dt, t_new);
         if (SymmetryPlanes<Dim>::any(state, b)) SymmetryPlanes<Dim>::project_particle(state, b, i, t_new);
         continue;
       }

@@ -47,16 +47,29 @@ struct SymmetryPlanes {
     }
   }
 
+  /// No shear traction on the plane of unit normal m: sigma <- P sigma P + (m . sigma m)
+  /// m m^T with P = I - m m^T (an in-plane stress and its normal, or both in 3 x 3).
+  template <class Tensor, class Normal>
+  static void remove_shear_traction(const Normal& m, Tensor& stress) {
+    const Tensor projector = Tensor::Identity() - m * m.transpose();
+    const double normal_stress = m.dot(stress * m);
+    stress = projector * stress * projector + normal_stress * (m * m.transpose());
+  }
+  /// The same on a stress in the particle arrays' layout (sigma_zz of 2D kept).
+  static void remove_shear_traction(const Vec& m, StressVector<Dim>& stress) {
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    normal.template head<Dim>() = m;
+    Eigen::Matrix3d tensor = to_tensor<Dim>(stress);
+    remove_shear_traction(normal, tensor);
+    stress = from_tensor<Dim>(tensor);
+  }
+
   /// Projects a velocity and an in-plane stress onto each further plane of slot b (see
   /// the file comment).
   static void project(const SolverState<Dim>& state, std::size_t b, double t, Vec& velocity, Mat& stress) {
     project_velocity(state, b, t, velocity);
-    for (int e = 0; e < 2 && state.boundary.extra_plane[b][static_cast<std::size_t>(e)] >= 0; ++e) {
-      const Vec& m = state.boundary.extra_normal[b][static_cast<std::size_t>(e)];
-      const Mat projector = Mat::Identity() - m * m.transpose();
-      const double normal_stress = m.dot(stress * m);
-      stress = projector * stress * projector + normal_stress * (m * m.transpose());
-    }
+    for (int e = 0; e < 2 && state.boundary.extra_plane[b][static_cast<std::size_t>(e)] >= 0; ++e)
+      remove_shear_traction(state.boundary.extra_normal[b][static_cast<std::size_t>(e)], stress);
   }
 
   /// The projection applied to real particle i's stored velocity and stress (slot b).
