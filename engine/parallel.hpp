@@ -28,20 +28,32 @@ void parallel_for(std::size_t n, Body&& body) {
 /// Runs `body(i, scratch, counts)` for i in [0, n) with one default-constructed
 /// `Scratch` per thread (reused buffers) and one `Counts` per thread, and returns the
 /// sum of the per-thread counts. `Counts` must be an integer tally with `+=`, so the
-/// total does not depend on the order in which threads finish.
+/// total does not depend on the thread count. The per-thread tallies are kept in one
+/// slot per thread and summed after the region, in thread order: no `omp critical`,
+/// whose lazily created lock crashed libomp under ThreadSanitizer when two host
+/// threads (`tsph validate --jobs 2`) entered the region at once (CI, stop 47).
 template <class Scratch, class Counts, class Body>
 Counts parallel_for_with_scratch(std::size_t n, Body&& body) {
   const auto count = static_cast<std::int64_t>(n);
-  Counts total{};
-#pragma omp parallel
+  int slots = 1;
+#ifdef _OPENMP
+  slots = std::max(1, omp_get_max_threads());
+#endif
+  std::vector<Counts> per_thread(static_cast<std::size_t>(slots));
+#pragma omp parallel num_threads(slots)
   {
+    std::size_t slot = 0;
+#ifdef _OPENMP
+    slot = static_cast<std::size_t>(omp_get_thread_num());
+#endif
     Scratch scratch;
     Counts local{};
 #pragma omp for schedule(static)
     for (std::int64_t i = 0; i < count; ++i) body(static_cast<std::size_t>(i), scratch, local);
-#pragma omp critical(tsph_parallel_counts)
-    total += local;
+    per_thread[slot] = local;
   }
+  Counts total{};
+  for (const Counts& local : per_thread) total += local;
   return total;
 }
 
