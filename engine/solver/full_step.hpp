@@ -52,6 +52,8 @@ struct FullStep {
     const Deficient deficient = state.positions_move() ? state.settings.deficient_stencils : Deficient::keep;
     if (material_motion)
       for (auto& component : state.next_position) component.assign(target.count, std::numeric_limits<double>::quiet_NaN());
+    const bool book_damping = state.settings.energy_ledger && state.settings.damping > 0.0;
+    for (auto& component : state.damped_velocity) component.assign(book_damping ? target.count : 0, 0.0);
     const bool reference = state.reference_kernel();  // SolverSettings::kernel_configuration
     // Not with mirror planes: widen() leaves out a mirror ghost's virtual neighbours (its
     // image has no row), so a widened row next to a plane is not the whole body's.
@@ -209,6 +211,8 @@ struct FullStep {
             target.velocity[d][r] +=
                 dt * (s.stress_divergence[d] / s.density + state.settings.body_force[d] -
                       state.settings.damping * s.velocity[d]);
+          if (book_damping)
+            for (int d = 0; d < Dim; ++d) state.damped_velocity[d][r] = s.velocity[d];
           if (compressible) {
             target.density[r] *= exp_of_small(-dt * s.velocity_gradient.trace());
             target.volume[r] = target.mass[r] / target.density[r];

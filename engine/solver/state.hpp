@@ -245,6 +245,14 @@ struct SolverState {
   /// written by the full step (NaN: none, the trapezoid applies), read by
   /// Motion::move in the same step. Scratch, one array per component.
   std::array<std::vector<double>, Dim> next_position;
+  /// With the energy ledger and damping: the velocity the momentum update damped at each
+  /// real particle, written by the full step (the interpolated v^{n+1/2}; the own v^n where
+  /// conservative_momentum replaces the update), read by EnergyAccounting::end, which books
+  /// the damping's work as the impulse it applied, -c dt m v_damped . v_mean. An odd-even
+  /// velocity that the interpolation does not see is not damped, and so not booked
+  /// (docs/notes/2026-12-06-damping-work.md). Empty otherwise; scratch, one array per
+  /// component.
+  std::array<std::vector<double>, Dim> damped_velocity;
 
   /// Checks the settings and both sets, releases the virtual fields the run does not
   /// read, and fills the boundary slots. The lists are built by the solver.

@@ -104,6 +104,8 @@ class ConservativeMomentum {
         if (SymmetryPlanes<Dim>::any(state, slot)) SymmetryPlanes<Dim>::project_velocity(state, slot, t_new, velocity);
       }
       for (int d = 0; d < Dim; ++d) state.real.velocity[d][i] = velocity[d];
+      if (!state.damped_velocity[0].empty())  // the energy ledger's damping: this update's
+        for (int d = 0; d < Dim; ++d) state.damped_velocity[d][i] = previous_velocity_[d][i];
     });
   }
 
