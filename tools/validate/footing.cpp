@@ -58,8 +58,9 @@ Result run_footing(const Options& o) {
     // The load: the vertical force through the row of particles one footing width below
     // the surface (trapezoid rule across the block). The soil is weightless, the sides are
     // smooth and the motion quasi-static, so every row carries the footing's load (they
-    // agree to 0.03 %); the footing's own particles would miss what their neighbours
-    // beyond its edges carry (6 % low at dx = B / 10).
+    // agree to 0.03 %); the footing's own particles' traction differs from it by O(dx)
+    // (2026-12-06: 4.1 % above at dx = B / 10, 2.1 % at B / 20; before the wall
+    // gradient, 6 % below).
     double force = 0.0, down = 0.0, count = 0.0;
     const double depth = -2.0 * half_width;
     for (std::size_t i = 0; i < frame.point_count; ++i) {
@@ -98,9 +99,11 @@ Result run_footing(const Options& o) {
   // Energy balance (per unit thickness) from the run's energy ledger (energy.csv;
   // engine/solver/energy_ledger.hpp) against the footing's work: the 1 %, checked
   // in the full version. Since the footing's stress is updated relative to the wall
-  // (2026-12-06, boundary/wall_gradient.hpp) the error is -0.3 % at dx = B / 4 and
-  // -2.3 % at B / 10 (CFL 0.9; +5.4 % and +3.7 % at CFL 0.45); by the characteristic
-  // relations it was -45 % and -18 % (docs/notes/2026-12-06-smooth-footing.md).
+  // (2026-12-06, boundary/wall_gradient.hpp) and the damping's work is booked as applied
+  // (session 30) the error is -8.5 % at dx = B / 4, -5.4 % at B / 10, -3.1 % at B / 20:
+  // the footing particles' traction lies O(dx) above the soil's plastic dissipation, which
+  // gives (2 + pi) c within 0.4 % (docs/notes/2026-12-06-damping-work.md); by the
+  // characteristic relations it was -45 % and -18 % (docs/notes/2026-12-06-smooth-footing.md).
   if (!run.energy.empty()) {
     const auto last = [&](const char* name) { return run.energy.at(name).back(); };
     const double work = last("boundary_footing");
