@@ -120,7 +120,7 @@ void print_overview(const CaseFile& c, const CaseOverview& v) {
   // The method: the automatic options as the run resolves them (docs/cases.md, Automatic defaults).
   const ResolvedMethodOptions m = resolved_method_options(c);
   const auto automatic = [](bool is) { return is ? " (automatic)" : ""; };
-  fmt::print("  method: {}{}, surface filter {}{}, hourglass stiffness {}{}, walls {}{}, surface extrapolation {}{}\n",
+  fmt::print("  method: {}{}, surface filter {}{}, hourglass stiffness {}{}, walls {}{}, surface extrapolation {}{}{}\n",
              to_string(c.kinematics),
              m.reference_lists ? std::string(" (kernel in the reference configuration)")
              : c.kinematics == Kinematics::updated_lagrangian
@@ -130,7 +130,9 @@ void print_overview(const CaseFile& c, const CaseOverview& v) {
              automatic(c.hourglass_stiffness == kAutomaticOption),
              m.wall_gradient ? "wall_gradient" : "characteristics",
              automatic(c.velocity_wall == CaseFile::VelocityWall::automatic), m.surface_extrapolation ? "on" : "off",
-             automatic(c.surface_extrapolation == Toggle::automatic));
+             automatic(c.surface_extrapolation == Toggle::automatic),
+             m.volumetric_average ? fmt::format(", volumetric average{}", automatic(c.volumetric_average == Toggle::automatic))
+                                  : std::string());
   fmt::print("  time: dt = {:.6g} s (CFL {:.3g}{}), end {} s: {}{} steps, {} output frames\n", v.dt,
              v.dt * v.wave_speed / v.spacing, c.adaptive_time_step ? ", adaptive: smaller as the body flattens" : "",
              c.end_time, c.adaptive_time_step ? "at least " : "", v.steps, v.frames);

@@ -188,13 +188,20 @@ void set_automatic_options(const CaseFile& c, SolverSettings<Dim>& settings) {
                                                                                         : Wall::automatic;
   settings.surface_extrapolation = c.surface_extrapolation;
   settings.free_edge_uniaxial = c.free_edge_uniaxial;
+  settings.volumetric_average = c.volumetric_average;
 }
 
 template <int Dim>
 ResolvedMethodOptions resolved_method_options_in(const CaseFile& c) {
   SolverSettings<Dim> settings;
   set_automatic_options(c, settings);
-  settings = resolve_automatic_options(settings, c.plasticity.model != "elastic");  // Material::plastic()
+  settings.kinematics = c.kinematics;  // SolverSettings::lists_used_once
+  settings.kernel_configuration = c.kernel_configuration == "reference"
+                                      ? SolverSettings<Dim>::KernelConfiguration::reference
+                                      : SolverSettings<Dim>::KernelConfiguration::current;
+  settings.neighbor_skin = c.neighbor_skin;
+  settings = resolve_automatic_options(settings, c.plasticity.model != "elastic",  // Material::plastic()
+                                      pressure_independent_yield(c));
   const bool moving = c.kinematics == Kinematics::updated_lagrangian;
   const bool reference_lists = moving && c.kernel_configuration == "reference";
   return {settings.hourglass_coefficient,
@@ -202,6 +209,7 @@ ResolvedMethodOptions resolved_method_options_in(const CaseFile& c) {
           settings.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient,
           settings.surface_extrapolation == Toggle::on,
           settings.free_edge_uniaxial == Toggle::on,
+          settings.volumetric_average == Toggle::on,
           reference_lists,
           moving && !reference_lists ? c.neighbor_skin : 0.0};
 }

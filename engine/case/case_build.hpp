@@ -51,6 +51,7 @@ struct ResolvedMethodOptions {
   bool wall_gradient = false;
   bool surface_extrapolation = false;
   bool free_edge_uniaxial = false;
+  bool volumetric_average = false;  ///< SolverSettings::volumetric_average
   /// Updated Lagrangian with the kernel in the reference configuration (the default):
   /// the lists of X, searched once (SolverState::reference_kernel).
   bool reference_lists = false;

@@ -106,6 +106,13 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
 
 }  // namespace
 
+bool pressure_independent_yield(const CaseFile& c) {
+  const CaseFile::Plasticity& p = c.plasticity;
+  if (c.dimension == 2 && c.plane_mode != PlaneMode::plane_strain) return false;
+  return p.model == "j2" || p.model == "johnson_cook" ||
+         (p.model == "drucker_prager" && p.friction_angle == 0.0 && std::isinf(p.tension_cutoff));
+}
+
 CaseFile load_case(const std::string& path, const std::vector<std::string>& overrides) {
   {
     std::error_code ec;
@@ -313,6 +320,13 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
                                                   : CaseFile::VelocityWall::automatic;
     const std::optional<bool> extrapolation = m.boolean("surface_extrapolation");
     c.surface_extrapolation = !extrapolation ? Toggle::automatic : *extrapolation ? Toggle::on : Toggle::off;
+    const std::optional<bool> volumetric = m.boolean("volumetric_average");
+    c.volumetric_average = !volumetric ? Toggle::automatic : *volumetric ? Toggle::on : Toggle::off;
+    if (c.volumetric_average == Toggle::on && !(c.dimension >= 2 && pressure_independent_yield(c)))
+      context.invalid(m.get("volumetric_average", false, ""), m.path("volumetric_average"),
+                      "applies to a plastic material whose yield does not depend on the pressure (model = \"j2\", "
+                      "\"johnson_cook\", or \"drucker_prager\" with friction_angle = 0 and no tension_cutoff) in "
+                      "dimension 3 or in plane strain: leave the key out");
     c.material_velocity_motion = m.boolean("material_velocity_motion").value_or(true);
     c.surface_motion = m.text("surface_motion", false, {"linear", "shepard"}).value_or("linear");
     c.conservative_momentum = m.boolean("conservative_momentum").value_or(false);

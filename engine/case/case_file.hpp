@@ -130,6 +130,7 @@ struct CaseFile {
   enum class VelocityWall { automatic, characteristics, wall_gradient };
   VelocityWall velocity_wall = VelocityWall::automatic;
   Toggle surface_extrapolation = Toggle::automatic;  ///< SolverSettings::surface_extrapolation
+  Toggle volumetric_average = Toggle::automatic;     ///< SolverSettings::volumetric_average
   bool material_velocity_motion = true;  ///< SolverSettings::material_velocity_motion
   std::string surface_motion = "linear";  ///< SolverSettings::surface_motion: linear, shepard
   bool conservative_momentum = false;    ///< SolverSettings::conservative_momentum
@@ -195,6 +196,11 @@ const std::vector<std::string>& known_output_fields();
 /// the TOML table before validation; a value is TOML (1e-3, true, "text", [1, 2]) or,
 /// failing that, a bare string. Throws CaseError.
 CaseFile load_case(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// Material::pressure_independent_yield of a case's material, before it is built: j2,
+/// johnson_cook, drucker_prager with friction_angle = 0 and no tension_cutoff; in 2D in
+/// plane strain.
+bool pressure_independent_yield(const CaseFile& c);
 
 /// The same from TOML text (a case written in code: the benchmark block, the tests);
 /// `name` stands for the file name in messages and the case's path.

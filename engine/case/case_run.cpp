@@ -360,7 +360,8 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
   std::string overrides;
   for (const auto& s : o.overrides) overrides += (overrides.empty() ? "" : ", ") + json_string(s);
   // The method options as the solver resolves them (the builder hands them over as set).
-  const SolverSettings<Dim> resolved = resolve_automatic_options(b.settings, b.material->plastic());
+  const SolverSettings<Dim> resolved =
+      resolve_automatic_options(b.settings, b.material->plastic(), b.material->pressure_independent_yield());
   std::string errors;
   for (const auto& e : r.errors)
     errors += fmt::format("{}\n    {{\"time\": {}, \"name\": {}, \"value\": {}}}", errors.empty() ? "" : ",",
@@ -372,7 +373,7 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       "\"spacing\": {}, \"smoothing_length\": {}, \"alpha\": {}, \"kernel\": {}, \"interpolation\": {}, "
       "\"kinematics\": {}, \"E\": {}, \"nu\": {}, \"rho\": {}, \"plane\": {}, \"p_wave_speed\": {}, "
       "\"dt\": {}, \"cfl\": {}, \"end_time\": {}, \"damping\": {}, \"hourglass\": {}, "
-      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"free_edge_uniaxial\": {}, \"kernel_configuration\": {}, \"neighbor_skin\": {}, "
+      "\"hourglass_stiffness\": {}, \"velocity_wall\": {}, \"surface_extrapolation\": {}, \"free_edge_uniaxial\": {}, \"volumetric_average\": {}, \"kernel_configuration\": {}, \"neighbor_skin\": {}, "
       "\"threads\": {}}},\n"
       "  \"time\": {},\n  \"steps\": {},\n  \"neighbor_builds\": {},\n  \"wall_seconds\": {},\n  \"particle_steps_per_second\": {},\n"
       "  \"output_frames\": {},\n  \"output_writer_seconds\": {},\n  \"output_wait_seconds\": {},\n"
@@ -390,6 +391,7 @@ void write_summary(const fs::path& out, const CaseFile& c, const RunOptions& o, 
       json_number(resolved.hourglass_stiffness),
       json_string(resolved.velocity_wall == SolverSettings<Dim>::VelocityWall::wall_gradient ? "wall_gradient" : "characteristics"),
       resolved.surface_extrapolation == Toggle::on ? "true" : "false", resolved.free_edge_uniaxial == Toggle::on ? "true" : "false",
+      resolved.volumetric_average == Toggle::on ? "true" : "false",
       // The kernel's configuration and the skin in effect: small strain evaluates the kernel
       // at X, and only the current kernel of updated Lagrangian has a skin.
       json_string(c.kinematics == Kinematics::updated_lagrangian ? c.kernel_configuration : std::string("reference")),

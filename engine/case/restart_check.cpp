@@ -144,6 +144,9 @@ std::string physics_record(const CaseFile& c) {
           : options.wall_gradient;
   r.add_text("method.velocity_wall", recorded_wall_gradient ? "wall_gradient" : "characteristics");
   r.add("method.surface_extrapolation", options.surface_extrapolation);
+  // With the average on only: a checkpoint of a run without it (every elastic run) still
+  // matches, and a plastic run's of before 2026-12-06 does not (its physics changed).
+  if (options.volumetric_average) r.add("method.volumetric_average", true);
   r.add("method.material_velocity_motion", c.material_velocity_motion);
   // Updated Lagrangian only (the key moves nothing in small strain): a small-strain
   // checkpoint written before the key existed still matches.

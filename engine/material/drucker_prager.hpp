@@ -114,6 +114,8 @@ class DruckerPrager {
   }
   PlasticState initial_state() const { return {}; }
   double eta() const { return eta_; }
+  /// phi = 0 without a tension cut-off: the yield function does not read the pressure.
+  bool pressure_independent_yield() const { return eta_ == 0.0 && std::isinf(p_.tension_cutoff); }
   double xi() const { return xi_; }
   double eta_bar() const { return eta_bar_; }
   double cohesion(double plastic_strain) const {

@@ -65,6 +65,16 @@ class Material {
   /// Whether the model reads the back stress and the temperature of its state (the
   /// half step interpolates only what it reads; SolverState::interpolated_plastic_state).
   bool reads_back_stress() const { return reads_back_stress_; }
+  /// A plastic model whose yield function does not read the pressure (J2, Johnson-Cook,
+  /// Drucker-Prager with phi = 0 and no tension cut-off; in 2D in plane strain, where the
+  /// in-plane pressure is the pressure): its return commutes with a change of the
+  /// pressure (SolverSettings::volumetric_average).
+  bool pressure_independent_yield() const {
+    if (Dim == 2 && plane_mode() != PlaneMode::plane_strain) return false;
+    if (model_.index() == 1) return true;
+    if (const auto* dp = std::get_if<2>(&model_)) return dp->pressure_independent_yield();
+    return false;
+  }
   bool reads_temperature() const { return reads_temperature_; }
   /// A virgin particle's internal variables.
   PlasticState initial_state() const {

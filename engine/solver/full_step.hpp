@@ -7,6 +7,7 @@
 
 #include "engine/parallel.hpp"
 #include "engine/solver/neighbor_lists.hpp"
+#include "engine/solver/stabilisation/volumetric_average.hpp"
 #include "engine/solver/state.hpp"
 #include "engine/solver/stencil_evaluation.hpp"
 
@@ -52,6 +53,8 @@ struct FullStep {
     const Deficient deficient = state.positions_move() ? state.settings.deficient_stencils : Deficient::keep;
     if (material_motion)
       for (auto& component : state.next_position) component.assign(target.count, std::numeric_limits<double>::quiet_NaN());
+    const bool volumetric_average = VolumetricAverage<Dim>::active(state);  // B-bar, after the loop
+    state.volumetric_rate.assign(volumetric_average ? target.count : 0, 0.0);
     const bool book_damping = state.settings.energy_ledger && state.settings.damping > 0.0;
     for (auto& component : state.damped_velocity) component.assign(book_damping ? target.count : 0, 0.0);
     const bool reference = state.reference_kernel();  // SolverSettings::kernel_configuration
@@ -213,11 +216,13 @@ struct FullStep {
                       state.settings.damping * s.velocity[d]);
           if (book_damping)
             for (int d = 0; d < Dim; ++d) state.damped_velocity[d][r] = s.velocity[d];
+          if (volumetric_average) state.volumetric_rate[r] = s.velocity_gradient.trace();
           if (compressible) {
             target.density[r] *= exp_of_small(-dt * s.velocity_gradient.trace());
             target.volume[r] = target.mass[r] / target.density[r];
           }
         }));
+    if (volumetric_average) VolumetricAverage<Dim>::apply(state, dt);
   }
 
   /// The projector onto the directions spanned by a rank-deficient row's offsets from its

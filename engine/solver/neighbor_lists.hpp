@@ -8,6 +8,7 @@
 #include "engine/solver/boundary/free_edge.hpp"
 #include "engine/solver/boundary/mirror_planes.hpp"
 #include "engine/solver/boundary/normals.hpp"
+#include "engine/solver/stabilisation/volumetric_average.hpp"
 #include "engine/solver/state.hpp"
 #include "neighbor/neighbor_search.hpp"
 #include "neighbor/spatial_order.hpp"
@@ -75,6 +76,7 @@ struct NeighborLists {
     state.lists.real_path_bound = 0.0;  // the lists hold the pairs within state.list_radius() from here on
     state.lists.virtual_path_bound = 0.0;
     ++state.counters.neighbor_builds;
+    if (VolumetricAverage<Dim>::active(state)) VolumetricAverage<Dim>::build(state);  // its material stencils
   }
 
   /// The full step's list (rows: real, entries: virtual). In updated-Lagrangian runs

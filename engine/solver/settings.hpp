@@ -87,6 +87,12 @@ struct SolverSettings {
   /// stress along the edge (boundary/free_edge.hpp). automatic: resolve_automatic_options
   /// (on for an elastic material in 3D).
   Toggle free_edge_uniaxial = Toggle::automatic;
+  /// 2D and 3D, a plastic material whose yield does not depend on the pressure: the
+  /// yielding interior particles' pressure and density follow the volumetric rate
+  /// averaged over their neighbourhood, R A tr L, instead of their own (B-bar;
+  /// stabilisation/volumetric_average.hpp). automatic: resolve_automatic_options (on
+  /// wherever it applies).
+  Toggle volumetric_average = Toggle::automatic;
   /// Updated Lagrangian: the real particles move with the velocity the stress sees, the
   /// virtual half-step velocity interpolated at the particle (x^{n+1} = x^n + dt
   /// v^{n+1/2}, midpoint rule; solver/kinematics.hpp), instead of the trapezoid of their
@@ -163,6 +169,14 @@ struct SolverSettings {
   /// filter, hourglass stiffness and surface extrapolation off, walls by the
   /// characteristic relations. What the tests of the scheme's own properties run
   /// (exactness, conservation, objectivity), and the seed's method in 2D and 3D.
+  /// Updated Lagrangian with the kernel in the current configuration, no skin and no
+  /// hourglass stiffness: each half step's list is searched for one use and released
+  /// (SolverState::lists_used_once; the hourglass stiffness resolved).
+  bool lists_used_once() const {
+    return kinematics == Kinematics::updated_lagrangian && kernel_configuration == KernelConfiguration::current &&
+           hourglass_stiffness == 0.0 && neighbor_skin == 0.0;
+  }
+
   static SolverSettings bare_scheme() {
     SolverSettings s;
     s.hourglass_coefficient = 0.0;
@@ -170,6 +184,7 @@ struct SolverSettings {
     s.velocity_wall = VelocityWall::characteristics;
     s.surface_extrapolation = Toggle::off;
     s.free_edge_uniaxial = Toggle::off;
+    s.volumetric_average = Toggle::off;
     return s;
   }
 };
@@ -205,8 +220,14 @@ constexpr bool takes_elastic_treatments(bool plastic) {
 /// Mirror planes with an elastic material in 2D or 3D: the automatic surface treatments
 /// are refused there with the keys to set (SolverState::check_mirror_planes); with any
 /// material the wall gradient, where a velocity wall or a moving smooth wall acts.
+///  * the volumetric average (B-bar) where it applies: a plastic material in 2D or 3D
+///    whose yield does not depend on the pressure (`pressure_independent_yield`,
+///    Material::pressure_independent_yield), with lists kept across the step (not
+///    lists_used_once: it takes its stencils from them). Isochoric plastic flow otherwise leaves an
+///    odd-even pressure in the plastic zone (the footing: +-2 c at every spacing).
 template <int Dim>
-SolverSettings<Dim> resolve_automatic_options(SolverSettings<Dim> settings, bool plastic) {
+SolverSettings<Dim> resolve_automatic_options(SolverSettings<Dim> settings, bool plastic,
+                                              bool pressure_independent_yield = false) {
   const bool treatments = takes_elastic_treatments<Dim>(plastic);
   if (settings.hourglass_coefficient == kAutomaticOption) settings.hourglass_coefficient = treatments ? 0.02 : 0.0;
   if (settings.hourglass_stiffness == kAutomaticOption) settings.hourglass_stiffness = treatments ? 0.05 : 0.0;
@@ -221,6 +242,9 @@ SolverSettings<Dim> resolve_automatic_options(SolverSettings<Dim> settings, bool
   // (docs/notes/2026-11-29-free-edges-in-rotation.md).
   if (settings.free_edge_uniaxial == Toggle::automatic)
     settings.free_edge_uniaxial = treatments && Dim == 3 ? Toggle::on : Toggle::off;
+  if (settings.volumetric_average == Toggle::automatic)
+    settings.volumetric_average =
+        Dim >= 2 && plastic && pressure_independent_yield && !settings.lists_used_once() ? Toggle::on : Toggle::off;
   return settings;
 }
 

@@ -208,6 +208,16 @@ struct MirrorGhosts {
   }
 };
 
+/// SolverSettings::volumetric_average's material stencils (stabilisation/volumetric_average.hpp),
+/// CSR by owned virtual particle (its corners: interior real particles within dx at X) and
+/// by owned real particle (its cells within dx at X), ghosts replaced by their owners;
+/// taken at the search SolverCounters::neighbor_builds.
+struct VolumetricAverageStencils {
+  std::vector<std::uint32_t> cell_start, cell_corner, particle_start, particle_cell;
+  std::vector<std::uint8_t> cell_has_corners;
+  std::int64_t neighbor_builds = -1;
+};
+
 template <int Dim>
 struct SolverState {
   using Vec = Vector<Dim>;
@@ -253,6 +263,11 @@ struct SolverState {
   /// (docs/notes/2026-12-06-damping-work.md). Empty otherwise; scratch, one array per
   /// component.
   std::array<std::vector<double>, Dim> damped_velocity;
+  /// SolverSettings::volumetric_average: every real particle's tr L^{n+1/2}, written by
+  /// the full step, and the virtual particles' Shepard averages of it
+  /// (stabilisation/volumetric_average.hpp). Empty otherwise; scratch.
+  std::vector<double> volumetric_rate, volumetric_cell_rate;
+  VolumetricAverageStencils volumetric_stencils;  ///< its cells' corners and particles' cells
 
   /// Checks the settings and both sets, releases the virtual fields the run does not
   /// read, and fills the boundary slots. The lists are built by the solver.
@@ -272,7 +287,7 @@ struct SolverState {
                                        Dim == 3 && settings.free_edge_uniaxial == Toggle::automatic};
     else
       automatic_surface_treatments_[2] = Dim >= 2 && settings.velocity_wall == SolverSettings<Dim>::VelocityWall::automatic;
-    settings = resolve_automatic_options(settings, material.plastic());
+    settings = resolve_automatic_options(settings, material.plastic(), material.pressure_independent_yield());
     check_settings();
     real.check_field_sizes("solver: the real set");
     virtual_.check_field_sizes("solver: the virtual set");
@@ -512,7 +527,7 @@ struct SolverState {
   /// after the full step; the full step then uses the list built at n, with the midpoint
   /// positions.
   bool lists_used_once() const {
-    return positions_move() && !reference_kernel() && settings.hourglass_stiffness == 0.0 && skin_distance() == 0.0;
+    return settings.lists_used_once();
   }
 
   /// Whether the pair (a_i, b_j) of a neighbour row lies within the support 2h. Without
@@ -635,6 +650,17 @@ struct SolverState {
                                   " must lie in [0, 1] (a fraction of the support radius 2h)");
     if (real.size() == 0 || virtual_.size() == 0)
       throw std::invalid_argument("solver: needs at least one real and one virtual particle");
+    if (settings.volumetric_average == Toggle::on && !(Dim >= 2 && material.pressure_independent_yield()))
+      throw std::invalid_argument(
+          "solver: volumetric_average (method.volumetric_average) applies to a plastic material whose yield does "
+          "not depend on the pressure (j2, johnson_cook, drucker_prager with friction_angle = 0 and no "
+          "tension_cutoff) in 3D or in plane strain; this run has " +
+          std::string(material.name()) + " in " + std::to_string(Dim) + "D: leave the key out");
+    if (settings.volumetric_average == Toggle::on && settings.lists_used_once())
+      throw std::invalid_argument(
+          "solver: volumetric_average (method.volumetric_average) takes its stencils from neighbour lists kept "
+          "across the step: with method.kernel_configuration = \"current\" set solver.neighbor_skin > 0 (or leave "
+          "the key out)");
     if (settings.free_edge_uniaxial == Toggle::on && Dim != 3)
       throw std::invalid_argument("solver: free_edge_uniaxial applies to the edges of 3D bodies only (dimension " +
                                   std::to_string(Dim) + ")");
