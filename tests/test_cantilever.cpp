@@ -88,16 +88,16 @@ TEST(Cantilever, DefaultsAreTheConvergedOptions) {
   BuiltCase<2> model = build_case<2>(plane);
   BuiltCase<2> copy = build_case<2>(plane);
   for (const SolverSettings<2>& s :
-       {resolve_automatic_options(model.settings, false), make_solver<2>(plane, copy).settings()}) {
+       {resolve_automatic_options(model.settings, false, false), make_solver<2>(plane, copy).settings()}) {
     EXPECT_EQ(s.velocity_wall, SolverSettings<2>::VelocityWall::wall_gradient);
     EXPECT_EQ(s.hourglass_stiffness, 0.05);
     EXPECT_EQ(s.hourglass_coefficient, 0.02);
     EXPECT_EQ(s.surface_extrapolation, Toggle::on);
     EXPECT_EQ(s.free_edge_uniaxial, Toggle::off);
   }
-  const SolverSettings<3> solid_settings = resolve_automatic_options(build_case<3>(solid).settings, false);
+  const SolverSettings<3> solid_settings = resolve_automatic_options(build_case<3>(solid).settings, false, false);
   EXPECT_EQ(solid_settings.free_edge_uniaxial, Toggle::on);
-  EXPECT_EQ(resolve_automatic_options(build_case<3>(solid).settings, true).free_edge_uniaxial, Toggle::off);
+  EXPECT_EQ(resolve_automatic_options(build_case<3>(solid).settings, true, false).free_edge_uniaxial, Toggle::off);
   EXPECT_EQ(resolved_method_options(solid).free_edge_uniaxial, true);
   EXPECT_EQ(solid_settings.velocity_wall, SolverSettings<3>::VelocityWall::wall_gradient);
   EXPECT_EQ(solid_settings.hourglass_stiffness, 0.05);

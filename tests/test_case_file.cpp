@@ -605,22 +605,22 @@ TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
     EXPECT_EQ(s.velocity_wall, wall ? Settings::VelocityWall::wall_gradient : Settings::VelocityWall::characteristics);
     EXPECT_EQ(s.surface_extrapolation, extrapolation ? Toggle::on : Toggle::off);
   };
-  const S2 elastic = resolve_automatic_options(S2{}, false);
+  const S2 elastic = resolve_automatic_options(S2{}, false, false);
   expect_settings(elastic, 0.02, 0.05, true, true);
-  expect_settings(resolve_automatic_options(SolverSettings<3>{}, false), 0.02, 0.05, true, true);
-  expect_settings(resolve_automatic_options(S2{}, true), 0.0, 0.0, true, false);
-  expect_settings(resolve_automatic_options(SolverSettings<3>{}, true), 0.0, 0.0, true, false);
-  expect_settings(resolve_automatic_options(SolverSettings<1>{}, true), 0.0, 0.0, false, false);
+  expect_settings(resolve_automatic_options(SolverSettings<3>{}, false, false), 0.02, 0.05, true, true);
+  expect_settings(resolve_automatic_options(S2{}, true, false), 0.0, 0.0, true, false);
+  expect_settings(resolve_automatic_options(SolverSettings<3>{}, true, false), 0.0, 0.0, true, false);
+  expect_settings(resolve_automatic_options(SolverSettings<1>{}, true, false), 0.0, 0.0, false, false);
   expect_settings(S2::bare_scheme(), 0.0, 0.0, false, false);
-  expect_settings(resolve_automatic_options(SolverSettings<1>{}, false), 0.0, 0.0, false, false);
+  expect_settings(resolve_automatic_options(SolverSettings<1>{}, false, false), 0.0, 0.0, false, false);
   S2 set;
   set.hourglass_stiffness = 0.01;
   set.velocity_wall = S2::VelocityWall::characteristics;
-  const S2 kept = resolve_automatic_options(set, false);
+  const S2 kept = resolve_automatic_options(set, false, false);
   EXPECT_EQ(kept.hourglass_stiffness, 0.01);
   EXPECT_EQ(kept.velocity_wall, S2::VelocityWall::characteristics);
   EXPECT_EQ(kept.surface_extrapolation, Toggle::on);  // the others still automatic
-  EXPECT_EQ(resolve_automatic_options(elastic, true).hourglass_stiffness, 0.05);  // resolved values stay
+  EXPECT_EQ(resolve_automatic_options(elastic, true, false).hourglass_stiffness, 0.05);  // resolved values stay
 
   // The case layer: an elastic 2D case, the 1D bar, a plastic 2D case, an explicit value.
   auto expect_options = [](const CaseFile& c, double filter, double stiffness, bool wall, bool extrapolation) {

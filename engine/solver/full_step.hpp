@@ -54,7 +54,8 @@ struct FullStep {
     if (material_motion)
       for (auto& component : state.next_position) component.assign(target.count, std::numeric_limits<double>::quiet_NaN());
     const bool volumetric_average = VolumetricAverage<Dim>::active(state);  // B-bar, after the loop
-    state.volumetric_rate.assign(volumetric_average ? target.count : 0, 0.0);
+    // NaN: a row without neighbours, which the loop leaves (VolumetricAverage skips it).
+    state.volumetric_rate.assign(volumetric_average ? target.count : 0, std::numeric_limits<double>::quiet_NaN());
     const bool book_damping = state.settings.energy_ledger && state.settings.damping > 0.0;
     for (auto& component : state.damped_velocity) component.assign(book_damping ? target.count : 0, 0.0);
     const bool reference = state.reference_kernel();  // SolverSettings::kernel_configuration

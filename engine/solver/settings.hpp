@@ -165,10 +165,6 @@ struct SolverSettings {
   /// constructor releases those the stepper does not read.
   bool keep_virtual_fields = false;
 
-  /// The scheme without the automatic treatments (resolve_automatic_options): surface
-  /// filter, hourglass stiffness and surface extrapolation off, walls by the
-  /// characteristic relations. What the tests of the scheme's own properties run
-  /// (exactness, conservation, objectivity), and the seed's method in 2D and 3D.
   /// Updated Lagrangian with the kernel in the current configuration, no skin and no
   /// hourglass stiffness: each half step's list is searched for one use and released
   /// (SolverState::lists_used_once; the hourglass stiffness resolved).
@@ -177,6 +173,10 @@ struct SolverSettings {
            hourglass_stiffness == 0.0 && neighbor_skin == 0.0;
   }
 
+  /// The scheme without the automatic treatments (resolve_automatic_options): surface
+  /// filter, hourglass stiffness and surface extrapolation off, walls by the
+  /// characteristic relations. What the tests of the scheme's own properties run
+  /// (exactness, conservation, objectivity), and the seed's method in 2D and 3D.
   static SolverSettings bare_scheme() {
     SolverSettings s;
     s.hourglass_coefficient = 0.0;
@@ -227,7 +227,7 @@ constexpr bool takes_elastic_treatments(bool plastic) {
 ///    odd-even pressure in the plastic zone (the footing: +-2 c at every spacing).
 template <int Dim>
 SolverSettings<Dim> resolve_automatic_options(SolverSettings<Dim> settings, bool plastic,
-                                              bool pressure_independent_yield = false) {
+                                              bool pressure_independent_yield) {
   const bool treatments = takes_elastic_treatments<Dim>(plastic);
   if (settings.hourglass_coefficient == kAutomaticOption) settings.hourglass_coefficient = treatments ? 0.02 : 0.0;
   if (settings.hourglass_stiffness == kAutomaticOption) settings.hourglass_stiffness = treatments ? 0.05 : 0.0;

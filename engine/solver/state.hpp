@@ -264,7 +264,7 @@ struct SolverState {
   /// component.
   std::array<std::vector<double>, Dim> damped_velocity;
   /// SolverSettings::volumetric_average: every real particle's tr L^{n+1/2}, written by
-  /// the full step, and the virtual particles' Shepard averages of it
+  /// the full step (NaN where its row had no neighbours), and the cells' means of it
   /// (stabilisation/volumetric_average.hpp). Empty otherwise; scratch.
   std::vector<double> volumetric_rate, volumetric_cell_rate;
   VolumetricAverageStencils volumetric_stencils;  ///< its cells' corners and particles' cells
@@ -659,8 +659,8 @@ struct SolverState {
     if (settings.volumetric_average == Toggle::on && settings.lists_used_once())
       throw std::invalid_argument(
           "solver: volumetric_average (method.volumetric_average) takes its stencils from neighbour lists kept "
-          "across the step: with method.kernel_configuration = \"current\" set solver.neighbor_skin > 0 (or leave "
-          "the key out)");
+          "across the step: with method.kernel_configuration = \"current\" set solver.neighbor_skin > 0 or "
+          "method.hourglass_stiffness > 0 (or leave the key out)");
     if (settings.free_edge_uniaxial == Toggle::on && Dim != 3)
       throw std::invalid_argument("solver: free_edge_uniaxial applies to the edges of 3D bodies only (dimension " +
                                   std::to_string(Dim) + ")");

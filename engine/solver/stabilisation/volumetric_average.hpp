@@ -76,6 +76,7 @@ struct VolumetricAverage {
       double weights = 0.0, sum = 0.0;
       for (std::uint32_t k = corner_start[q]; k < corner_start[q + 1]; ++k) {
         const std::uint32_t j = corner[k];
+        if (std::isnan(rate[j])) continue;  // its row had no neighbours: no rate this step
         weights += real_volume[j];
         sum += real_volume[j] * rate[j];
       }
@@ -93,7 +94,7 @@ struct VolumetricAverage {
     const std::uint8_t* const yielding = state.real.yielding.data();
     const std::int32_t* const slot = state.boundary.slot.data();
     parallel_for(state.volumetric_rate.size(), [&](std::size_t r) {
-      if (slot[r] >= 0 || yielding[r] == 0) return;
+      if (slot[r] >= 0 || yielding[r] == 0 || std::isnan(rate[r])) return;
       double weights = 0.0, sum = 0.0;
       for (std::uint32_t k = cell_start[r]; k < cell_start[r + 1]; ++k) {
         const std::uint32_t q = cell[k];
