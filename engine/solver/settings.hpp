@@ -217,14 +217,14 @@ constexpr bool takes_elastic_treatments(bool plastic) {
 ///    at 0.01 at B/10); an impact case sets its own (tools/cases/taylor_bar_3d.toml:
 ///    0.01). The surface treatments are left off with it, so that a quarter model
 ///    with mirror planes, which cannot carry them, runs the whole model's method.
-/// Mirror planes with an elastic material in 2D or 3D: the automatic surface treatments
-/// are refused there with the keys to set (SolverState::check_mirror_planes); with any
-/// material the wall gradient, where a velocity wall or a moving smooth wall acts.
 ///  * the volumetric average (B-bar) where it applies: a plastic material in 2D or 3D
 ///    whose yield does not depend on the pressure (`pressure_independent_yield`,
 ///    Material::pressure_independent_yield), with lists kept across the step (not
-///    lists_used_once: it takes its stencils from them). Isochoric plastic flow otherwise leaves an
-///    odd-even pressure in the plastic zone (the footing: +-2 c at every spacing).
+///    lists_used_once: it takes its stencils from them). Isochoric plastic flow
+///    otherwise leaves an odd-even pressure in the plastic zone (the footing: +-2 c at every spacing).
+/// Mirror planes with an elastic material in 2D or 3D: the automatic surface treatments
+/// are refused there with the keys to set (SolverState::check_mirror_planes); with any
+/// material the wall gradient, where a velocity wall or a moving smooth wall acts.
 template <int Dim>
 SolverSettings<Dim> resolve_automatic_options(SolverSettings<Dim> settings, bool plastic,
                                               bool pressure_independent_yield) {

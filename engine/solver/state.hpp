@@ -214,7 +214,6 @@ struct MirrorGhosts {
 /// taken at the search SolverCounters::neighbor_builds.
 struct VolumetricAverageStencils {
   std::vector<std::uint32_t> cell_start, cell_corner, particle_start, particle_cell;
-  std::vector<std::uint8_t> cell_has_corners;
   std::int64_t neighbor_builds = -1;
 };
 

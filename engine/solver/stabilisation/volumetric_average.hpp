@@ -46,6 +46,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace tsph {
@@ -69,10 +70,10 @@ struct VolumetricAverage {
     const std::uint32_t* const corner_start = stencils.cell_start.data();
     const std::uint32_t* const corner = stencils.cell_corner.data();
     std::vector<double>& cell_rate_storage = state.volumetric_cell_rate;
-    cell_rate_storage.assign(virtual_count(state), 0.0);
+    cell_rate_storage.resize(state.virtual_.size());
     double* const cell_rate = cell_rate_storage.data();
-    // A tr L: each cell's mean over its interior corners (none: no value, weight 0).
-    parallel_for(virtual_count(state), [&](std::size_t q) {
+    // A tr L: each cell's mean over its interior corners (none with a rate: NaN, no value).
+    parallel_for(state.virtual_.size(), [&](std::size_t q) {
       double weights = 0.0, sum = 0.0;
       for (std::uint32_t k = corner_start[q]; k < corner_start[q + 1]; ++k) {
         const std::uint32_t j = corner[k];
@@ -80,7 +81,7 @@ struct VolumetricAverage {
         weights += real_volume[j];
         sum += real_volume[j] * rate[j];
       }
-      cell_rate[q] = weights > 0.0 ? sum / weights : 0.0;
+      cell_rate[q] = weights > 0.0 ? sum / weights : std::numeric_limits<double>::quiet_NaN();
     });
     // R (A tr L) at the yielding interior particles, and the correction: a pressure alone,
     // K = lambda + 2 mu / 3 on the three normal stresses (in plane strain too, as B-bar's
@@ -90,7 +91,6 @@ struct VolumetricAverage {
     const bool compressible = state.density_follows();
     const std::uint32_t* const cell_start = stencils.particle_start.data();
     const std::uint32_t* const cell = stencils.particle_cell.data();
-    const std::uint8_t* const cell_has_corners = stencils.cell_has_corners.data();
     const std::uint8_t* const yielding = state.real.yielding.data();
     const std::int32_t* const slot = state.boundary.slot.data();
     parallel_for(state.volumetric_rate.size(), [&](std::size_t r) {
@@ -98,9 +98,9 @@ struct VolumetricAverage {
       double weights = 0.0, sum = 0.0;
       for (std::uint32_t k = cell_start[r]; k < cell_start[r + 1]; ++k) {
         const std::uint32_t q = cell[k];
-        const double w = cell_has_corners[q] ? cell_volume[q] : 0.0;
-        weights += w;
-        sum += w * cell_rate[q];
+        if (std::isnan(cell_rate[q])) continue;
+        weights += cell_volume[q];
+        sum += cell_volume[q] * cell_rate[q];
       }
       if (!(weights > 0.0)) return;
       const double excess = sum / weights - rate[r];  // theta - tr L
@@ -119,7 +119,7 @@ struct VolumetricAverage {
   /// the ghosts attached), once per run with the reference kernel.
   static void build(SolverState<Dim>& state) {
     VolumetricAverageStencils& s = state.volumetric_stencils;
-    const std::size_t cells = virtual_count(state), particles = state.real.size();
+    const std::size_t cells = state.virtual_.size(), particles = state.real.size();
     const bool reference =
         state.positions_move();  // small strain: x = X (the initial positions may be released)
     std::array<const double*, Dim> real_x{}, cell_x{};
@@ -140,14 +140,12 @@ struct VolumetricAverage {
     const std::size_t owned_real = state.real.size(), owned_cells = state.virtual_.size();
     s.cell_start.assign(1, 0);
     s.cell_corner.clear();
-    s.cell_has_corners.assign(cells, 0);
     for (std::size_t q = 0; q < cells; ++q) {
       for (std::uint32_t j : state.lists.virtual_from_real.neighbors(q)) {
         const std::uint32_t owner = j < owned_real ? j : state.mirror.real.source[j - owned_real];
         if (state.boundary.slot[owner] >= 0 || !within(j, q)) continue;
         s.cell_corner.push_back(owner);
       }
-      s.cell_has_corners[q] = s.cell_corner.size() > s.cell_start.back() ? 1 : 0;
       s.cell_start.push_back(static_cast<std::uint32_t>(s.cell_corner.size()));
     }
     s.particle_start.assign(1, 0);
@@ -160,11 +158,6 @@ struct VolumetricAverage {
       s.particle_start.push_back(static_cast<std::uint32_t>(s.particle_cell.size()));
     }
     s.neighbor_builds = state.counters.neighbor_builds;
-  }
-
- private:
-  static std::size_t virtual_count(const SolverState<Dim>& state) {
-    return state.lists.virtual_from_real.query_count();
   }
 };
 
