@@ -88,7 +88,8 @@ int run(const Options& o) {
   const double skin = moving ? o.skin : 0.0;
   const bool reference_lists = moving && o.kernel == "reference";
   const double estimate =
-      estimate_bytes_per_real_particle<Dim>(o.alpha, o.transpose_lists, skin, false, false, false, reference_lists);
+      estimate_bytes_per_real_particle<Dim>(o.alpha, {.transposed_lists = o.transpose_lists, .skin = skin,
+                                                      .reference_lists = reference_lists});
   try {
     check_memory_budget(estimate, real_count,
                         available_memory_bytes());

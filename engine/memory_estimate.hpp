@@ -41,7 +41,9 @@
 //     half-step lists at once, each of the radius (1 + s) 2h ((1 + s)^Dim times the
 //     pairs) (the displacements since the search are bounded by a scalar per set, no
 //     stored positions); the cell list is released before the second list is
-//     transposed from the first.
+//     transposed from the first;
+//   * a plastic material's internal variables (plastic_field_bytes) and the volumetric
+//     average's stencils and rates (volumetric_average_bytes).
 #pragma once
 
 #include "engine/particle_set.hpp"
@@ -80,10 +82,42 @@ double cell_centres_within(double radius) {
   return count;
 }
 
+/// What a run holds beyond the bare scheme's fields and one list (the header comment).
+struct MemoryModel {
+  bool transposed_lists = false;     ///< SolverSettings::transpose_lists
+  double skin = 0.0;                 ///< SolverSettings::neighbor_skin (a fraction of 2h)
+  bool keep_virtual_fields = false;  ///< SolverSettings::keep_virtual_fields
+  bool energy_ledger = false;        ///< SolverSettings::energy_ledger
+  bool hourglass_stiffness = false;  ///< a positive hourglass stiffness
+  bool reference_lists = false;      ///< the kernel in the reference configuration
+  bool plastic_fields = false;       ///< a plastic material (ParticleSet::carry_plastic_fields)
+  bool volumetric_average = false;   ///< SolverSettings::volumetric_average on
+};
+
+/// The plastic models' internal variables of a real particle
+/// (ParticleSet::carry_plastic_fields): the equivalent plastic strain, the plastic work,
+/// the temperature and the back stress (doubles), and the yield flag (1 B): 57 B in 2D,
+/// 73 B in 3D.
 template <int Dim>
-double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = false, double skin = 0.0,
-                                        bool keep_virtual_fields = false, bool energy_ledger = false,
-                                        bool hourglass_stiffness = false, bool reference_lists = false) {
+constexpr double plastic_field_bytes() {
+  return 8.0 * (3 + stress_component_count<Dim>) + 1.0;
+}
+
+/// The volumetric average (engine/solver/stabilisation/volumetric_average.hpp), per real
+/// particle with about as many cells: the two stencils (each a 4 B row start and 2^Dim
+/// 4 B entries: a cell's corners, a particle's cells on the lattice) and the two rates
+/// (8 B per particle and per cell): 56 B in 2D, 88 B in 3D.
+template <int Dim>
+constexpr double volumetric_average_bytes() {
+  return 2.0 * (4.0 + 4.0 * (1 << Dim)) + 16.0;
+}
+
+template <int Dim>
+double estimate_bytes_per_real_particle(double alpha, const MemoryModel& model = {}) {
+  const bool transposed_lists = model.transposed_lists, keep_virtual_fields = model.keep_virtual_fields,
+             energy_ledger = model.energy_ledger, hourglass_stiffness = model.hourglass_stiffness,
+             reference_lists = model.reference_lists;
+  double skin = model.skin;
   if (!(alpha > 0.0) || !std::isfinite(alpha))
     throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
                                 " must be positive");
@@ -92,7 +126,9 @@ double estimate_bytes_per_real_particle(double alpha, bool transposed_lists = fa
   const double real_set = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
   const double virtual_set =
       keep_virtual_fields ? real_set : 8.0 * (3 * Dim + stress_component_count<Dim> + 3);
-  const double sets = real_set + virtual_set + (energy_ledger ? 8.0 * Dim : 0.0);
+  const double sets = real_set + virtual_set + (energy_ledger ? 8.0 * Dim : 0.0) +
+                      (model.plastic_fields ? plastic_field_bytes<Dim>() : 0.0) +
+                      (model.volumetric_average ? volumetric_average_bytes<Dim>() : 0.0);
   if (reference_lists) skin = 0.0;  // the lists of X: searched once, no skin
   const double radius = 2.0 * alpha * (1.0 + skin);  // list radius in lattice spacings
   const double pairs = Dim == 1   ? 2.0 * radius

@@ -27,26 +27,26 @@ TEST(MemoryEstimate, CountsSetsListsAndCellList) {
   EXPECT_NEAR(estimate_bytes_per_real_particle<3>(1.2), 180.0 + 144.0 + 235.6 + 4.0 + 32.0, 0.2);
   // The virtual set with every field (SolverSettings::keep_virtual_fields): Dim doubles
   // (the displacements) and 3 int32 more.
-  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.0, true) - estimate_bytes_per_real_particle<2>(1.2),
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, {.keep_virtual_fields = true}) - estimate_bytes_per_real_particle<2>(1.2),
               28.0, 1e-9);
   // More neighbours, more memory.
   EXPECT_GT(estimate_bytes_per_real_particle<3>(1.6), estimate_bytes_per_real_particle<3>(1.2));
   // Transposed lists: two lists (4 B row starts + 4 B per pair each) instead of one and the cell list.
-  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, true), 132.0 + 104.0 + 2.0 * 76.38 + 4.0, 0.2);
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, {.transposed_lists = true}), 132.0 + 104.0 + 2.0 * 76.38 + 4.0, 0.2);
   // A skin of 10 % of 2h: two lists of 1.1^2 the pairs (4 + 4 x 21.9 B each); no stored
   // positions (path bounds), no cell list at the peak.
-  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.1),
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, {.skin = 0.1}),
               132.0 + 104.0 + 2.0 * (4.0 + 4.0 * 1.21 * 18.096) + 4.0, 0.2);
   // The kernel in the reference configuration (the default of updated Lagrangian): both
   // lists of radius 2h kept, whatever the skin, and the cell list of the second search
   // (none when it is transposed from the first).
-  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, false, 0.1, false, false, false, true),
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, {.skin = 0.1, .reference_lists = true}),
               132.0 + 104.0 + 2.0 * 76.38 + 24.0 + 4.0, 0.2);
-  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, true, 0.1, false, false, false, true),
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, {.transposed_lists = true, .skin = 0.1, .reference_lists = true}),
               132.0 + 104.0 + 2.0 * 76.38 + 4.0, 0.2);
   for (double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()})
     EXPECT_THROW(estimate_bytes_per_real_particle<2>(bad), std::invalid_argument);
-  EXPECT_THROW(estimate_bytes_per_real_particle<2>(1.2, false, -0.1), std::invalid_argument);
+  EXPECT_THROW(estimate_bytes_per_real_particle<2>(1.2, {.skin = -0.1}), std::invalid_argument);
   // The hourglass stiffness (the default of an elastic material in 2D and 3D): its two
   // return-trip lists over the cell centres within max(2h, 1.75 dx) (12 in 2D and 32 in
   // 3D at alpha 0.6, 16 in 2D at alpha 1.2), 4 B row starts and 12 B per pair each, 9 B
@@ -58,10 +58,24 @@ TEST(MemoryEstimate, CountsSetsListsAndCellList) {
   EXPECT_EQ(cell_centres_within<3>(1.75), 32.0);
   EXPECT_EQ(cell_centres_within<2>(2.4), 16.0);
   const double pairs_3d = 4.0 / 3.0 * std::numbers::pi * 1.2 * 1.2 * 1.2;
-  EXPECT_NEAR(estimate_bytes_per_real_particle<3>(0.6, false, 0.0, false, false, true) -
+  EXPECT_NEAR(estimate_bytes_per_real_particle<3>(0.6, {.hourglass_stiffness = true}) -
                   estimate_bytes_per_real_particle<3>(0.6),
               2.0 * (4.0 + 12.0 * 32.0) + 9.0 * pairs_3d + 2.0 * 8.0 * 5 + 2.0 * 8.0 * 3 + (4.0 + 4.0 * pairs_3d),
               1e-9);  // the last: without a skin both half-step lists are held
+  // A plastic material (ParticleSet::carry_plastic_fields): plastic strain, plastic work,
+  // temperature and the back stress (3 + 4 doubles in 2D, 3 + 6 in 3D) and the yield
+  // flag. The volumetric average: two stencils of 2^Dim entries per row (cells' corners,
+  // particles' cells) with their row starts, and a rate per particle and per cell.
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, {.plastic_fields = true}) - estimate_bytes_per_real_particle<2>(1.2),
+              57.0, 1e-9);
+  EXPECT_NEAR(estimate_bytes_per_real_particle<3>(1.2, {.plastic_fields = true}) - estimate_bytes_per_real_particle<3>(1.2),
+              73.0, 1e-9);
+  EXPECT_NEAR(estimate_bytes_per_real_particle<2>(1.2, {.volumetric_average = true}) -
+                  estimate_bytes_per_real_particle<2>(1.2),
+              2.0 * (4.0 + 4.0 * 4.0) + 16.0, 1e-9);
+  EXPECT_NEAR(estimate_bytes_per_real_particle<3>(1.2, {.volumetric_average = true}) -
+                  estimate_bytes_per_real_particle<3>(1.2),
+              2.0 * (4.0 + 4.0 * 8.0) + 16.0, 1e-9);
 }
 
 TEST(MemoryEstimate, RefusesACountThatDoesNotFitWithTheEstimateAndTheLimit) {

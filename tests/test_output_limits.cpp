@@ -12,12 +12,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <functional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <unistd.h>
 
@@ -76,6 +78,30 @@ TEST_F(OutputLimitsTest, EstimateCountsTheBarCaseAndBoundsItsOutput) {
   EXPECT_GE(e.output_bytes, written);
   // Memory: at least the two particle sets the solver holds.
   EXPECT_GE(e.memory_bytes, 201.0 * (8.0 * (4 + 1 + 3) + 12.0));
+}
+
+// A plastic run (the footing: Drucker-Prager, plane strain, the volumetric average on):
+// its checkpoint holds the real set's internal variables, and the estimate bounds it
+// within 10 %; the memory estimate counts those variables and the average's stencils.
+TEST_F(OutputLimitsTest, EstimateCountsThePlasticFieldsOfTheFooting) {
+  const std::vector<std::string> short_run{"time.end=0.01", "output.times=[0.01]", "output.checkpoint_every=5"};
+  const CaseFile c = load_case((kCases / "footing_2d.toml").string(), short_run);
+  const ResourceEstimate e = estimate_resources(c);
+  RunOptions o;
+  o.out_dir = dir_.string();
+  o.quiet = true;
+  const RunReport r = run_case(c, o);
+  ASSERT_FALSE(r.last_checkpoint.empty());
+  const double checkpoint = static_cast<double>(fs::file_size(r.last_checkpoint));
+  EXPECT_GE(e.checkpoint_bytes, checkpoint);
+  EXPECT_LE(e.checkpoint_bytes, 1.1 * checkpoint + 4096.0);
+  // Without the volumetric average the memory estimate is smaller by its stencils and
+  // rates (56 B per particle of the larger set); the plastic fields are in both.
+  std::vector<std::string> without = short_run;
+  without.push_back("method.volumetric_average=false");
+  const CaseFile plain = load_case((kCases / "footing_2d.toml").string(), without);
+  const ResourceEstimate e_plain = estimate_resources(plain);
+  EXPECT_NEAR(e.memory_bytes - e_plain.memory_bytes, 56.0 * std::max(e.real_particles, e.virtual_particles), 1e-6);
 }
 
 // Refusals: memory or disk below the estimate gives a CaseError naming the estimate,

@@ -68,6 +68,7 @@ ResourceEstimate estimate(const CaseFile& c) {
   // One VTU frame (vtu_writer.cpp): points (3 doubles), connectivity and offsets
   // (int64), types (uint8), and per point the fields listed in output.fields; each
   // block has an 8-byte count; about 2 KiB of XML.
+  const bool plastic = c.plasticity.model != "elastic";  // its real set holds plastic_field_bytes more
   auto frame_bytes = [&](double n, bool real) {
     double per_point = 24.0 + 8.0 + 8.0 + 1.0;
     double blocks = 4.0;
@@ -83,7 +84,7 @@ ResourceEstimate estimate(const CaseFile& c) {
     field("von_mises", 8.0);
     field("density", 8.0);
     field("id", 4.0);
-    if (real && c.plasticity.model != "elastic") field("plastic", 32.0, 4.0);
+    if (real && plastic) field("plastic", 32.0, 4.0);
     if (real && c.has_field("exact")) {
       const double exact = c.exact == "bar" ? 2.0 : c.exact == "cantilever" ? 1.0 : 0.0;
       per_point += 8.0 * exact;
@@ -98,10 +99,11 @@ ResourceEstimate estimate(const CaseFile& c) {
   // solver releases unless its frames are written: SolverSettings::keep_virtual_fields),
   // plus the .pvd lists and error records.
   const double set_bytes = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
+  const double real_set_bytes = set_bytes + (plastic ? plastic_field_bytes<Dim>() : 0.0);
   const double virtual_set_bytes = c.output_virtual ? set_bytes : 8.0 * (2 * Dim + stress_component_count<Dim> + 3);
   const double bookkeeping = 256.0 * e.frames;  // per frame: .pvd entries, error records
   e.checkpoint_bytes =
-      set_bytes * e.real_particles + virtual_set_bytes * e.virtual_particles + bookkeeping + 4096.0;
+      real_set_bytes * e.real_particles + virtual_set_bytes * e.virtual_particles + bookkeeping + 4096.0;
   // Probes: a row of 1 + 3 Dim + 7 numbers of 18 characters per probe_every steps
   // (and per frame); the .pvd lists: about 80 bytes per frame, twice (the file and its
   // temporary copy). Checkpoints: two kept and one being written.
@@ -115,9 +117,16 @@ ResourceEstimate estimate(const CaseFile& c) {
   // checkpoint in the making (a copy of both sets, its byte buffer and the string
   // handed to the writer); the frame bookkeeping is held once more by the run.
   const ResolvedMethodOptions m = resolved_method_options(c);
-  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, c.transpose_lists, m.neighbor_skin, c.output_virtual,
-                                                       c.energy_every > 0, m.hourglass_stiffness > 0.0,
-                                                       m.reference_lists) *
+  MemoryModel model;
+  model.transposed_lists = c.transpose_lists;
+  model.skin = m.neighbor_skin;
+  model.keep_virtual_fields = c.output_virtual;
+  model.energy_ledger = c.energy_every > 0;
+  model.hourglass_stiffness = m.hourglass_stiffness > 0.0;
+  model.reference_lists = m.reference_lists;
+  model.plastic_fields = plastic;
+  model.volumetric_average = m.volumetric_average;
+  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, model) *
                        std::max(e.real_particles, e.virtual_particles) +
                    e.frame_bytes + 3.0 * (e.checkpoint_bytes - bookkeeping) + 4.0 * bookkeeping;
   return e;
