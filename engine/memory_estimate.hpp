@@ -114,9 +114,6 @@ constexpr double volumetric_average_bytes() {
 
 template <int Dim>
 double estimate_bytes_per_real_particle(double alpha, const MemoryModel& model = {}) {
-  const bool transposed_lists = model.transposed_lists, keep_virtual_fields = model.keep_virtual_fields,
-             energy_ledger = model.energy_ledger, hourglass_stiffness = model.hourglass_stiffness,
-             reference_lists = model.reference_lists;
   double skin = model.skin;
   if (!(alpha > 0.0) || !std::isfinite(alpha))
     throw std::invalid_argument("memory estimate: alpha = " + std::to_string(alpha) +
@@ -125,11 +122,11 @@ double estimate_bytes_per_real_particle(double alpha, const MemoryModel& model =
     throw std::invalid_argument("memory estimate: skin = " + std::to_string(skin) + " must be >= 0");
   const double real_set = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
   const double virtual_set =
-      keep_virtual_fields ? real_set : 8.0 * (3 * Dim + stress_component_count<Dim> + 3);
-  const double sets = real_set + virtual_set + (energy_ledger ? 8.0 * Dim : 0.0) +
+      model.keep_virtual_fields ? real_set : 8.0 * (3 * Dim + stress_component_count<Dim> + 3);
+  const double sets = real_set + virtual_set + (model.energy_ledger ? 8.0 * Dim : 0.0) +
                       (model.plastic_fields ? plastic_field_bytes<Dim>() : 0.0) +
                       (model.volumetric_average ? volumetric_average_bytes<Dim>() : 0.0);
-  if (reference_lists) skin = 0.0;  // the lists of X: searched once, no skin
+  if (model.reference_lists) skin = 0.0;  // the lists of X: searched once, no skin
   const double radius = 2.0 * alpha * (1.0 + skin);  // list radius in lattice spacings
   const double pairs = Dim == 1   ? 2.0 * radius
                        : Dim == 2 ? std::numbers::pi * radius * radius
@@ -138,16 +135,18 @@ double estimate_bytes_per_real_particle(double alpha, const MemoryModel& model =
   const double boundary_offsets = 4.0;
   const double cell_list = 8.0 + 8.0 * Dim;
   const double return_pairs = cell_centres_within<Dim>(std::max(2.0 * alpha, 1.75));
-  const double stiffness = hourglass_stiffness ? 2.0 * (4.0 + 12.0 * return_pairs) + 9.0 * pairs +
-                                                     2.0 * 8.0 * (Dim + 2) + 2.0 * 8.0 * Dim
-                                               : 0.0;
+  const double stiffness = model.hourglass_stiffness ? 2.0 * (4.0 + 12.0 * return_pairs) + 9.0 * pairs +
+                                                           2.0 * 8.0 * (Dim + 2) + 2.0 * 8.0 * Dim
+                                                     : 0.0;
   if (skin > 0.0) return sets + 2.0 * list + boundary_offsets + stiffness;
   // The reference lists: the full step's list is searched (a cell list) while the half
   // step's is held, once, at the construction, unless it is transposed from it.
-  if (reference_lists) return sets + 2.0 * list + (transposed_lists ? 0.0 : cell_list) + boundary_offsets + stiffness;
+  if (model.reference_lists)
+    return sets + 2.0 * list + (model.transposed_lists ? 0.0 : cell_list) + boundary_offsets + stiffness;
   // Without a skin the half-step list is released before the full step's is built, except
   // with the hourglass stiffness, which reads it after the full step (both held).
-  const double lists = transposed_lists ? 2.0 * list : list + cell_list + (hourglass_stiffness ? list : 0.0);
+  const double lists =
+      model.transposed_lists ? 2.0 * list : list + cell_list + (model.hourglass_stiffness ? list : 0.0);
   return sets + lists + boundary_offsets + stiffness;
 }
 
