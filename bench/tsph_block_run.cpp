@@ -87,9 +87,12 @@ int run(const Options& o) {
   const bool moving = o.kinematics == Kinematics::updated_lagrangian;
   const double skin = moving ? o.skin : 0.0;
   const bool reference_lists = moving && o.kernel == "reference";
-  const double estimate =
-      estimate_bytes_per_real_particle<Dim>(o.alpha, {.transposed_lists = o.transpose_lists, .skin = skin,
-                                                      .reference_lists = reference_lists});
+  // A plastic model: its fields, and (an upper bound: J2 takes it, the 20-degree
+  // Drucker-Prager here does not) the volumetric average's stencils.
+  const bool plastic = o.model != "elastic";
+  const double estimate = estimate_bytes_per_real_particle<Dim>(
+      o.alpha, {.transposed_lists = o.transpose_lists, .skin = skin, .reference_lists = reference_lists,
+                .plastic_fields = plastic, .volumetric_average = plastic});
   try {
     check_memory_budget(estimate, real_count,
                         available_memory_bytes());

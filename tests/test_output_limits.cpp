@@ -6,6 +6,7 @@
 #include "engine/case/case_file.hpp"
 #include "engine/case/case_run.hpp"
 #include "engine/lattice.hpp"
+#include "engine/memory_estimate.hpp"
 #include "engine/output/checkpoint.hpp"
 #include "engine/output/vtu_writer.hpp"
 #include "engine/output_file.hpp"
@@ -102,6 +103,16 @@ TEST_F(OutputLimitsTest, EstimateCountsThePlasticFieldsOfTheFooting) {
   const CaseFile plain = load_case((kCases / "footing_2d.toml").string(), without);
   const ResourceEstimate e_plain = estimate_resources(plain);
   EXPECT_NEAR(e.memory_bytes - e_plain.memory_bytes, 56.0 * std::max(e.real_particles, e.virtual_particles), 1e-6);
+  // What the estimate and `tsph check` count: the plastic fields in both, the average as
+  // resolved; an elastic case neither.
+  const MemoryModel model = memory_model(c), plain_model = memory_model(plain);
+  EXPECT_TRUE(model.plastic_fields);
+  EXPECT_TRUE(model.volumetric_average);
+  EXPECT_TRUE(plain_model.plastic_fields);
+  EXPECT_FALSE(plain_model.volumetric_average);
+  const MemoryModel bar = memory_model(load_case((kCases / "bar.toml").string()));
+  EXPECT_FALSE(bar.plastic_fields);
+  EXPECT_FALSE(bar.volumetric_average);
 }
 
 // Refusals: memory or disk below the estimate gives a CaseError naming the estimate,

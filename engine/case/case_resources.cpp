@@ -116,17 +116,7 @@ ResourceEstimate estimate(const CaseFile& c) {
   // virtual set as about as large), the snapshot the background writer holds, and a
   // checkpoint in the making (a copy of both sets, its byte buffer and the string
   // handed to the writer); the frame bookkeeping is held once more by the run.
-  const ResolvedMethodOptions m = resolved_method_options(c);
-  MemoryModel model;
-  model.transposed_lists = c.transpose_lists;
-  model.skin = m.neighbor_skin;
-  model.keep_virtual_fields = c.output_virtual;
-  model.energy_ledger = c.energy_every > 0;
-  model.hourglass_stiffness = m.hourglass_stiffness > 0.0;
-  model.reference_lists = m.reference_lists;
-  model.plastic_fields = plastic;
-  model.volumetric_average = m.volumetric_average;
-  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, model) *
+  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, memory_model(c)) *
                        std::max(e.real_particles, e.virtual_particles) +
                    e.frame_bytes + 3.0 * (e.checkpoint_bytes - bookkeeping) + 4.0 * bookkeeping;
   return e;
@@ -138,6 +128,20 @@ std::string gib(double bytes) {
 }
 
 }  // namespace
+
+MemoryModel memory_model(const CaseFile& c) {
+  const ResolvedMethodOptions m = resolved_method_options(c);
+  MemoryModel model;
+  model.transposed_lists = c.transpose_lists;
+  model.skin = m.neighbor_skin;
+  model.keep_virtual_fields = c.output_virtual;
+  model.energy_ledger = c.energy_every > 0;
+  model.hourglass_stiffness = m.hourglass_stiffness > 0.0;
+  model.reference_lists = m.reference_lists;
+  model.plastic_fields = c.plasticity.model != "elastic";
+  model.volumetric_average = m.volumetric_average;
+  return model;
+}
 
 ResourceEstimate estimate_resources(const CaseFile& c) {
   switch (c.dimension) {

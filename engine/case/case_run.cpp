@@ -75,9 +75,9 @@ CaseOverview inspect(const CaseFile& c) {
   const double set_per_particle = 8.0 * (4 * Dim + stress_component_count<Dim> + 3) + 12.0;
   const double virtual_per_particle =
       c.output_virtual ? set_per_particle : 8.0 * (2 * Dim + stress_component_count<Dim> + 3);
-  const double real_per_particle = set_per_particle +
-                                   (c.plasticity.model != "elastic" ? plastic_field_bytes<Dim>() : 0.0) +
-                                   (resolved_method_options(c).volumetric_average ? volumetric_average_bytes<Dim>() : 0.0);
+  const MemoryModel model = memory_model(c);
+  const double real_per_particle = set_per_particle + (model.plastic_fields ? plastic_field_bytes<Dim>() : 0.0) +
+                                   (model.volumetric_average ? volumetric_average_bytes<Dim>() : 0.0);
   const double particles = static_cast<double>(o.real_particles + o.virtual_particles);
   const double pairs = static_cast<double>(solver->virtual_from_real().pair_count() +
                                            solver->real_from_virtual().pair_count());

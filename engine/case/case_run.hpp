@@ -82,6 +82,8 @@ struct RunReport {
 
 /// What a run will need, estimated from the case alone (before any particle is built),
 /// so that a run that cannot fit is refused up front (issue 6, resource limits).
+struct MemoryModel;  // engine/memory_estimate.hpp
+
 struct ResourceEstimate {
   double real_particles = 0.0;     ///< from the geometry (a union of boxes: their sum)
   double virtual_particles = 0.0;
@@ -100,6 +102,12 @@ struct ResourceLimits {
 };
 
 ResourceEstimate estimate_resources(const CaseFile& c);
+
+/// What the solver of the case holds beyond the bare scheme's fields and lists
+/// (memory_estimate.hpp), with the method options as the run resolves them: the lists'
+/// kind and skin, the energy ledger, the hourglass stiffness, a plastic material's fields
+/// and the volumetric average. estimate_resources and the overview of `tsph check` read it.
+MemoryModel memory_model(const CaseFile& c);
 
 /// MemAvailable or the control group's limit; free space under `out_dir` (statvfs).
 ResourceLimits machine_limits(const std::string& out_dir);

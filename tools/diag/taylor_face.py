@@ -39,12 +39,15 @@ def main():
     angle = np.degrees(np.arctan2(np.abs(x[:, 2]), np.abs(x[:, 1])))
     angle = np.minimum(angle, 90.0 - angle)  # 0 on the axes, 45 on the diagonals
     diagonal = face & (np.abs(angle - 45.0) < 7.5)
+    if not on_axes.any() or not diagonal.any():
+        sys.exit(f"taylor_face: no face particle on the axes or near the diagonal at dx = R0 / {n}: "
+                 "is N the run's particles across the radius?")
     far = int(np.argmax(r))
     print(f"axes {r[on_axes].mean() / R0:.4f}; diagonal {r[diagonal].max() / R0:.4f}; "
           f"largest {r[far] / R0:.4f} (initial row {int(round(x0[far, 0] / dx))}, x = {x[far, 0] / dx:.2f} dx)")
     bins = []
     for start in range(0, 45, 5):
-        m = face & (angle >= start) & (angle < start + 5)
+        m = face & (angle >= start) & ((angle < start + 5) | (start == 40))  # 45 itself in the last
         if m.any():
             bins.append(f"{start}-{start + 5}: {r[m].max() / R0:.3f}")
     print("face, largest r / R0 by angle: " + ", ".join(bins))

@@ -138,8 +138,12 @@ struct VolumetricAverage {
       return s2 < reach_squared;
     };
     const std::size_t owned_real = state.real.size(), owned_cells = state.virtual_.size();
+    // Reserved to their bound (2^Dim entries a row: a cell's corners, a particle's cells on
+    // the lattice), so that they hold no growth slack (memory_estimate.hpp counts this).
+    s.cell_start.reserve(cells + 1);
     s.cell_start.assign(1, 0);
     s.cell_corner.clear();
+    s.cell_corner.reserve(cells << Dim);
     for (std::size_t q = 0; q < cells; ++q) {
       for (std::uint32_t j : state.lists.virtual_from_real.neighbors(q)) {
         const std::uint32_t owner = j < owned_real ? j : state.mirror.real.source[j - owned_real];
@@ -148,8 +152,10 @@ struct VolumetricAverage {
       }
       s.cell_start.push_back(static_cast<std::uint32_t>(s.cell_corner.size()));
     }
+    s.particle_start.reserve(particles + 1);
     s.particle_start.assign(1, 0);
     s.particle_cell.clear();
+    s.particle_cell.reserve(particles << Dim);
     for (std::size_t r = 0; r < particles; ++r) {
       for (std::uint32_t q : state.lists.real_from_virtual.neighbors(r))
         if (within(r, q))
