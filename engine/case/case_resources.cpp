@@ -68,7 +68,8 @@ ResourceEstimate estimate(const CaseFile& c) {
   // One VTU frame (vtu_writer.cpp): points (3 doubles), connectivity and offsets
   // (int64), types (uint8), and per point the fields listed in output.fields; each
   // block has an 8-byte count; about 2 KiB of XML.
-  const bool plastic = c.plasticity.model != "elastic";  // its real set holds plastic_field_bytes more
+  const MemoryModel model = memory_model(c);
+  const bool plastic = model.plastic_fields;  // its real set holds plastic_field_bytes more
   auto frame_bytes = [&](double n, bool real) {
     double per_point = 24.0 + 8.0 + 8.0 + 1.0;
     double blocks = 4.0;
@@ -116,7 +117,7 @@ ResourceEstimate estimate(const CaseFile& c) {
   // virtual set as about as large), the snapshot the background writer holds, and a
   // checkpoint in the making (a copy of both sets, its byte buffer and the string
   // handed to the writer); the frame bookkeeping is held once more by the run.
-  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, memory_model(c)) *
+  e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, model) *
                        std::max(e.real_particles, e.virtual_particles) +
                    e.frame_bytes + 3.0 * (e.checkpoint_bytes - bookkeeping) + 4.0 * bookkeeping;
   return e;

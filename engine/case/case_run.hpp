@@ -80,10 +80,10 @@ struct RunReport {
   std::vector<ErrorRecord> errors;
 };
 
-/// What a run will need, estimated from the case alone (before any particle is built),
-/// so that a run that cannot fit is refused up front (issue 6, resource limits).
 struct MemoryModel;  // engine/memory_estimate.hpp
 
+/// What a run will need, estimated from the case alone (before any particle is built),
+/// so that a run that cannot fit is refused up front (issue 6, resource limits).
 struct ResourceEstimate {
   double real_particles = 0.0;     ///< from the geometry (a union of boxes: their sum)
   double virtual_particles = 0.0;

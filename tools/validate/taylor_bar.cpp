@@ -51,6 +51,12 @@ double discrete_length(double dx) { return std::round(kLength / dx) * dx; }
 /// Group tags of the particle file (the case file's regions).
 constexpr int kInterior = 0, kSide = 1, kFarEnd = 2;
 
+/// Whether the lattice cell with lower corner (j, k) of the section belongs to a bar nr
+/// cells in radius: its centre lies within the radius (see the file comment).
+bool cell_filled(int j, int k, int nr) {
+  return (j + 0.5) * (j + 0.5) + (k + 0.5) * (k + 0.5) <= static_cast<double>(nr) * nr;
+}
+
 /// The cylinder's real particles (see the file comment), written as a particle file:
 /// columns x, y, z, volume, vx, vy, vz, group; the impact face (x = 0) starts at rest on
 /// the wall, the rest at -kSpeed along x. `quarter`: the quarter y >= 0, z >= 0 only (the
@@ -66,7 +72,7 @@ void write_cylinder(const std::string& path, double dx, bool quarter) {
   int cells = 0;
   for (int j = -nr - 1; j <= nr; ++j)
     for (int k = -nr - 1; k <= nr; ++k)
-      if ((j + 0.5) * (j + 0.5) + (k + 0.5) * (k + 0.5) <= double(nr) * nr) {
+      if (cell_filled(j, k, nr)) {
         const bool modelled = !quarter || (j >= 0 && k >= 0);
         cells += modelled;
         for (int a = 0; a < 2; ++a)
@@ -96,13 +102,10 @@ void write_cylinder(const std::string& path, double dx, bool quarter) {
 /// A face particle at lattice node (j, k) of a bar n cells in radius lies on the lateral
 /// surface: not all four cells around it have their centre within the radius (write_cylinder's rule).
 bool on_outer_ring(int j, int k, int n) {
-  int filled = 0, touched = 0;
-  for (const double cj : {j - 0.5, j + 0.5})
-    for (const double ck : {k - 0.5, k + 0.5}) {
-      ++touched;
-      if (cj * cj + ck * ck <= static_cast<double>(n) * n) ++filled;
-    }
-  return filled > 0 && filled < touched;
+  int filled = 0;
+  for (const int a : {j - 1, j})
+    for (const int b : {k - 1, k}) filled += cell_filled(a, b, n);
+  return filled > 0 && filled < 4;
 }
 
 Result run_taylor_bar(const Options& o, bool quarter) {
