@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <tuple>
 
 namespace tsph {
 namespace {
@@ -16,7 +17,7 @@ struct Bar {
   std::unique_ptr<TaylorSph<1>> solver;
   double dt = 0.0;
 };
-Bar make_bar(int particles, double cfl) {
+Bar make_bar(int particles, double cfl, double alpha = 0.6, bool left_free = false, bool right_free = true) {
   const double dx = 1.0 / (particles - 1), density = 2000.0, young = 8e7;
   LatticeBox<1> box;
   box.lower[0] = 0.0;
@@ -24,12 +25,13 @@ Bar make_bar(int particles, double cfl) {
   box.spacing = dx;
   ParticleSet<1> real = make_real_lattice(box, density);
   ParticleSet<1> virtual_particles = make_virtual_lattice(box, density);
-  std::vector<BoundaryCondition<1>> boundaries{BoundaryCondition<1>::fixed("left"),
-                                               BoundaryCondition<1>::free("right")};
+  std::vector<BoundaryCondition<1>> boundaries{
+      left_free ? BoundaryCondition<1>::free("left") : BoundaryCondition<1>::fixed("left"),
+      right_free ? BoundaryCondition<1>::free("right") : BoundaryCondition<1>::fixed("right")};
   real.boundary.front() = 0;
   real.boundary.back() = 1;
   SolverSettings<1> settings;
-  settings.smoothing_length = 0.6 * dx;
+  settings.smoothing_length = alpha * dx;
   Bar bar;
   bar.solver = std::make_unique<TaylorSph<1>>(std::move(real), std::move(virtual_particles),
                                               LinearElastic<1>(young, 0.0, density), settings, boundaries);
@@ -56,6 +58,21 @@ TEST(StepMap, BarIsStableAtCfl1AndUnstableAbove) {
   Bar unstable = make_bar(41, 1.1);
   const auto layout2 = step_map_layout(*unstable.solver, unstable.dt);
   EXPECT_GT(spectral_radius(assemble_step_map(*unstable.solver, layout2, 0.0, unstable.dt)), 1.01);
+}
+
+// At alpha >= 1 the ends' characteristic relations took their normal derivatives from
+// the real set at n (forward Euler along the normal), and the bar's lowest standing waves
+// grew: 1 + 1.59e-3 per step with both ends free (11 particles, alpha 1.2, CFL 0.9),
+// 1 + 6.8e-4 fixed-free, 1 + 1.3e-4 at 41 particles. With the virtual set's at n+1/2
+// every |lambda| is 1 to round-off (docs/notes/2026-12-06-alpha12-boundary-energy.md).
+TEST(StepMap, BarEndsKeepTheEnergyAtAlpha12) {
+  for (const auto& [particles, cfl, left_free] : {std::tuple{11, 0.9, true}, std::tuple{11, 0.5, true},
+                                                   std::tuple{11, 0.9, false}, std::tuple{41, 0.9, true}}) {
+    Bar bar = make_bar(particles, cfl, 1.2, left_free, true);
+    const auto layout = step_map_layout(*bar.solver, bar.dt);
+    EXPECT_LE(spectral_radius(assemble_step_map(*bar.solver, layout, 0.0, bar.dt)), 1.0 + 1e-6)
+        << particles << " particles, CFL " << cfl << (left_free ? ", both ends free" : ", fixed-free");
+  }
 }
 
 // G U + f equals one ordinary solver step from U (the map is the step, and affine):

@@ -112,6 +112,7 @@ struct FullStep {
               state.boundary.half_velocity[static_cast<std::size_t>(b)].setZero();
               state.boundary.gradient_sum[static_cast<std::size_t>(b)].setZero();
               state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = 0;
+              state.boundary.linear_half_row[static_cast<std::size_t>(b)] = 0;
               state.boundary.half_span[static_cast<std::size_t>(b)].setIdentity();  // its zero gradients are read as they are
               for (auto& g : state.boundary.half_stress_gradient[static_cast<std::size_t>(b)]) g.setZero();
             }
@@ -132,6 +133,8 @@ struct FullStep {
             // Tangential derivatives at n+1/2 for the boundary conditions.
             state.boundary.half_velocity_gradient[static_cast<std::size_t>(b)] = s.velocity_gradient;
             state.boundary.full_rank_gradient[static_cast<std::size_t>(b)] = status.gradient_fallback ? 0 : 1;
+            state.boundary.linear_half_row[static_cast<std::size_t>(b)] =
+                status.gradient_fallback || status.interpolation_fallback ? 0 : 1;
             if (deficient == Deficient::complete) state.boundary.half_span[static_cast<std::size_t>(b)] = Mat::Identity();
             state.boundary.half_velocity[static_cast<std::size_t>(b)] = s.velocity;
             Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I

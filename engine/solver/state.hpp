@@ -63,6 +63,12 @@ struct BoundaryParticles {
   /// is rank-deficient (a corner at alpha 0.6: one virtual neighbour, the missing
   /// direction read as zero) or empty: then half_velocity_gradient is not a gradient
   std::vector<char> full_rank_gradient;
+  /// 1 where the half-step row's linear interpolation was regular too (its virtual stencil
+  /// spans every direction from its centroid: at alpha >= 1 a 1D end has virtual particles
+  /// at two depths, at alpha 0.6 one), so that its half-step gradient along the normal is
+  /// a derivative of the virtual field and not of the particle's own value
+  /// (characteristics.hpp, the 1D ends' normal derivative at n+1/2).
+  std::vector<char> linear_half_row;
   /// deficient_stencils = complete only: the projector onto the directions a row's virtual
   /// stencil spans (0 for a corner at alpha 0.6, the edge's direction for a 3D edge) where
   /// it misses a tangent and no widened stencil was regular to complete its half-step
@@ -88,7 +94,7 @@ struct BoundaryParticles {
   void for_each_field(F&& f) {
     f(particle), f(profile), f(on_surface), f(box_corner), f(edge_axis), f(normal), f(stress), f(velocity), f(density);
     f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
-    f(half_velocity), f(normal_moment), f(gradient_sum), f(full_rank_gradient), f(half_span), f(extra_plane), f(extra_normal);
+    f(half_velocity), f(normal_moment), f(gradient_sum), f(full_rank_gradient), f(linear_half_row), f(half_span), f(extra_plane), f(extra_normal);
     f(face_area);
   }
 
@@ -119,6 +125,7 @@ struct BoundaryParticles {
     normal_moment.assign(n, Mat::Zero());
     gradient_sum.assign(n, Vec::Zero());
     full_rank_gradient.assign(n, 0);
+    linear_half_row.assign(n, 0);
     half_span.assign(n, Mat::Identity());
     extra_normal.assign(n, {Vec::Zero(), Vec::Zero()});
   }

@@ -216,11 +216,29 @@ struct CharacteristicBoundary {
       const double z_p = density * c_p;
       const double z_s = density * c_s;
 
-      // State at n and its normal derivatives (real set), in the frame.
+      // State at n and its normal derivatives, in the frame. In 1D the normal derivatives
+      // come from the virtual set at n+1/2 where the row spans the normal (alpha >= 1:
+      // virtual particles at two depths), as the tangential ones below: with the real set's
+      // at n the relation is forward Euler along the normal, and at alpha >= 1 (the real
+      // row's fit over two neighbours, no longer the upwind interpolation of alpha 0.6) its
+      // dt^2 energy term is positive at the end: a bar with free or fixed ends grew its
+      // lowest standing waves by 1 + 1.6e-3 per step (11 particles, alpha 1.2, CFL 0.9;
+      // 1 + 1.3e-4 at 41), now 1 to round-off at alpha 1.0-1.2, CFL 0.1-1.0. Where the row
+      // does not span the normal (alpha 0.6: one virtual depth) the real set at n stays,
+      // which keeps the bar exact at CFL 1. In 2D and 3D the same change stabilises a free
+      // strip but makes the clamped plate at alpha 1.2 lose energy and diverge next to its
+      // clamp, so there the real set at n stays
+      // (docs/notes/2026-12-06-alpha12-boundary-energy.md).
+      const bool normal_at_half = Dim == 1 && state.boundary.linear_half_row[b];
       const Mat stress0 = frame.transpose() * in_plane<Dim>(state.boundary.stress[b]) * frame;
       const Vec velocity0 = frame.transpose() * state.boundary.velocity[b];
-      const Mat stress_dn = frame.transpose() * directional<Dim>(state.boundary.stress_gradient[b], n) * frame;
-      const Vec velocity_dn = frame.transpose() * (state.boundary.velocity_gradient[b] * n);
+      const Mat stress_dn =
+          frame.transpose() *
+          directional<Dim>(normal_at_half ? state.boundary.half_stress_gradient[b] : state.boundary.stress_gradient[b], n) *
+          frame;
+      const Vec velocity_dn =
+          frame.transpose() *
+          ((normal_at_half ? state.boundary.half_velocity_gradient[b] : state.boundary.velocity_gradient[b]) * n);
       // Tangential derivatives at n+1/2 (virtual set): column k of velocity_dt is
       // d v' / d t_k, stress_dt[k] is d sigma' / d t_k.
       // Tangential derivatives at n+1/2 from the virtual set (second order in time; the
