@@ -216,18 +216,14 @@ struct CharacteristicBoundary {
       const double z_p = density * c_p;
       const double z_s = density * c_s;
 
-      // State at n and its normal derivatives, in the frame. In 1D the normal derivatives
-      // come from the virtual set at n+1/2 where the row spans the normal (alpha >= 1:
-      // virtual particles at two depths), as the tangential ones below: with the real set's
-      // at n the relation is forward Euler along the normal, and at alpha >= 1 (the real
-      // row's fit over two neighbours, no longer the upwind interpolation of alpha 0.6) its
-      // dt^2 energy term is positive at the end: a bar with free or fixed ends grew its
-      // lowest standing waves by 1 + 1.6e-3 per step (11 particles, alpha 1.2, CFL 0.9;
-      // 1 + 1.3e-4 at 41), now 1 to round-off at alpha 1.0-1.2, CFL 0.1-1.0. Where the row
-      // does not span the normal (alpha 0.6: one virtual depth) the real set at n stays,
-      // which keeps the bar exact at CFL 1. In 2D and 3D the same change stabilises a free
-      // strip but makes the clamped plate at alpha 1.2 lose energy and diverge next to its
-      // clamp, so there the real set at n stays
+      // State at n and its normal derivatives, in the frame. In 1D, where the row spans the
+      // normal (alpha >= 1: virtual particles at two depths), the normal derivatives are
+      // the virtual set's at n+1/2, like the tangential ones below: the real set's at n are
+      // forward Euler along the normal, and at alpha 1.2 the bar's lowest standing waves
+      // grew by 1 + 1.6e-3 per step (11 particles, CFL 0.9), now 1 to round-off at CFL
+      // 0.1-1.0. Alpha 0.6 (one virtual depth) keeps the real set at n, exact at CFL 1. In
+      // 2D and 3D the change makes the clamped plate at alpha 1.2 lose energy and diverge
+      // at its clamp, so the real set at n stays there
       // (docs/notes/2026-12-06-alpha12-boundary-energy.md).
       const bool normal_at_half = Dim == 1 && state.boundary.linear_half_row[b];
       const Mat stress0 = frame.transpose() * in_plane<Dim>(state.boundary.stress[b]) * frame;
