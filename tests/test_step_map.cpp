@@ -75,6 +75,38 @@ TEST(StepMap, BarEndsKeepTheEnergyAtAlpha12) {
   }
 }
 
+// A bar with both ends fixed, set breathing (v = x - L/2), alpha 1.2: its energy must not
+// grow. With the virtual set's n+1/2 derivative of the velocity at the fixed ends too, a
+// steady velocity field whose virtual gradient is uniform made the mean stress drift
+// linearly: E / E0 reached 100 in 1000 steps at 11 particles, CFL 0.9 (a Jordan block at
+// the eigenvalue 1: the spectral radius of BarEndsKeepTheEnergyAtAlpha12 stays 1).
+// docs/notes/2026-12-06-boundary-second-order-tries.md.
+TEST(StepMap, FixedFixedBarAtAlpha12DoesNotDrift) {
+  for (const auto& [particles, cfl] : {std::pair{11, 0.9}, std::pair{11, 0.5}, std::pair{21, 0.9}, std::pair{41, 0.5}}) {
+    const double dx = 1.0 / (particles - 1), density = 2000.0, young = 8e7;
+    LatticeBox<1> box;
+    box.lower[0] = 0.0;
+    box.node_count = {particles};
+    box.spacing = dx;
+    ParticleSet<1> real = make_real_lattice(box, density);
+    for (std::size_t i = 0; i < real.size(); ++i) real.velocity[0][i] = real.position[0][i] - 0.5;
+    real.boundary.front() = 0;
+    real.boundary.back() = 1;
+    SolverSettings<1> settings;
+    settings.smoothing_length = 1.2 * dx;
+    TaylorSph<1> solver(std::move(real), make_virtual_lattice(box, density), LinearElastic<1>(young, 0.0, density),
+                        settings, {BoundaryCondition<1>::fixed("left"), BoundaryCondition<1>::fixed("right")});
+    const double dt = cfl * dx / std::sqrt(young / density);
+    const double e0 = solver.kinetic_energy() + solver.strain_energy();
+    double largest = 0.0;
+    for (int k = 0; k < 3000; ++k) {
+      solver.step(dt);
+      largest = std::max(largest, solver.kinetic_energy() + solver.strain_energy());
+    }
+    EXPECT_LE(largest, e0) << particles << " particles, CFL " << cfl;
+  }
+}
+
 // G U + f equals one ordinary solver step from U (the map is the step, and affine):
 // the 2D cantilever, 21 x 3, a random state, under the full load.
 TEST(StepMap, CantileverMapReproducesAStep) {

@@ -221,11 +221,20 @@ struct CharacteristicBoundary {
       // the virtual set's at n+1/2, like the tangential ones below: the real set's at n are
       // forward Euler along the normal, and at alpha 1.2 the bar's lowest standing waves
       // grew by 1 + 1.6e-3 per step (11 particles, CFL 0.9), now 1 to round-off at CFL
-      // 0.1-1.0. Alpha 0.6 (one virtual depth) keeps the real set at n, exact at CFL 1. In
-      // 2D and 3D the change makes the clamped plate at alpha 1.2 lose energy and diverge
-      // at its clamp, so the real set at n stays there
+      // 0.1-1.0. Alpha 0.6 (one virtual depth) keeps the real set at n, exact at CFL 1.
+      // Where the normal velocity is prescribed (a fixed end, a wall) the velocity's normal
+      // derivative stays the real set's at n: with the virtual set's, a bar with both ends
+      // fixed kept a steady velocity field whose virtual gradient is uniform, and its mean
+      // stress drifted linearly without bound (a Jordan block at the eigenvalue 1, which the
+      // spectral radius does not show; 11-41 particles, CFL 0.1-0.9 all diverged; now all
+      // decay; docs/notes/2026-12-06-boundary-second-order-tries.md). In 2D and 3D the
+      // n+1/2 rule makes the clamped plate at alpha 1.2 lose energy and diverge at its
+      // clamp, so the real set at n stays there
       // (docs/notes/2026-12-06-alpha12-boundary-energy.md).
       const bool normal_at_half = Dim == 1 && state.boundary.linear_half_row[b];
+      const bool normal_velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity ||
+                                         condition.kind == BoundaryCondition<Dim>::Kind::symmetry;
+      const bool velocity_normal_at_half = normal_at_half && !normal_velocity_given;
       const Mat stress0 = frame.transpose() * in_plane<Dim>(state.boundary.stress[b]) * frame;
       const Vec velocity0 = frame.transpose() * state.boundary.velocity[b];
       const Mat stress_dn =
@@ -234,7 +243,7 @@ struct CharacteristicBoundary {
           frame;
       const Vec velocity_dn =
           frame.transpose() *
-          ((normal_at_half ? state.boundary.half_velocity_gradient[b] : state.boundary.velocity_gradient[b]) * n);
+          ((velocity_normal_at_half ? state.boundary.half_velocity_gradient[b] : state.boundary.velocity_gradient[b]) * n);
       // Tangential derivatives at n+1/2 (virtual set): column k of velocity_dt is
       // d v' / d t_k, stress_dt[k] is d sigma' / d t_k.
       // Tangential derivatives at n+1/2 from the virtual set (second order in time; the
