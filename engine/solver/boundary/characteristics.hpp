@@ -227,10 +227,10 @@ struct CharacteristicBoundary {
       // fixed kept a steady velocity field whose virtual gradient is uniform, and its mean
       // stress drifted linearly without bound (a Jordan block at the eigenvalue 1, which the
       // spectral radius does not show; 11 particles at CFL 0.1-0.9, 21 and 41 at 0.5-0.9 all
-      // diverged; now 11-41 at CFL 0.1-0.9 decay; docs/notes/2026-12-06-boundary-second-order-tries.md). In 2D and 3D the
-      // n+1/2 rule makes the clamped plate at alpha 1.2 lose energy and diverge at its
-      // clamp, so the real set at n stays there
-      // (docs/notes/2026-12-06-alpha12-boundary-energy.md).
+      // diverged; now 11-41 at CFL 0.1-0.9 decay;
+      // docs/notes/2026-12-06-boundary-second-order-tries.md). In 2D and 3D the n+1/2 rule
+      // makes the clamped plate at alpha 1.2 lose energy and diverge at its clamp, so the
+      // real set at n stays there (docs/notes/2026-12-06-alpha12-boundary-energy.md).
       const bool normal_at_half = Dim == 1 && state.boundary.linear_half_row[b];
       const bool normal_velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity ||
                                          condition.kind == BoundaryCondition<Dim>::Kind::symmetry;
