@@ -226,15 +226,16 @@ struct CharacteristicBoundary {
       // derivative stays the real set's at n: with the virtual set's, a bar with both ends
       // fixed kept a steady velocity field whose virtual gradient is uniform, and its mean
       // stress drifted linearly without bound (a Jordan block at the eigenvalue 1, which the
-      // spectral radius does not show; 11 particles at CFL 0.1-0.9, 21 and 41 at 0.5-0.9 all
-      // diverged; now 11-41 at CFL 0.1-0.9 decay;
-      // docs/notes/2026-12-06-boundary-second-order-tries.md). In 2D and 3D the n+1/2 rule
+      // spectral radius does not show; docs/notes/2026-12-06-boundary-second-order-tries.md,
+      // test StepMap.FixedFixedBarAtAlpha12DoesNotDrift). In 2D and 3D the n+1/2 rule
       // makes the clamped plate at alpha 1.2 lose energy and diverge at its clamp, so the
       // real set at n stays there (docs/notes/2026-12-06-alpha12-boundary-energy.md).
+      const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
+      // A symmetry plane (a smooth wall): the normal velocity given (the wall's, 0 for a
+      // fixed plane), the tangential tractions zero.
+      const bool symmetry = condition.kind == BoundaryCondition<Dim>::Kind::symmetry;
       const bool normal_at_half = Dim == 1 && state.boundary.linear_half_row[b];
-      const bool normal_velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity ||
-                                         condition.kind == BoundaryCondition<Dim>::Kind::symmetry;
-      const bool velocity_normal_at_half = normal_at_half && !normal_velocity_given;
+      const bool velocity_normal_at_half = normal_at_half && !velocity_given && !symmetry;
       const Mat stress0 = frame.transpose() * in_plane<Dim>(state.boundary.stress[b]) * frame;
       const Vec velocity0 = frame.transpose() * state.boundary.velocity[b];
       const Mat stress_dn =
@@ -324,10 +325,6 @@ struct CharacteristicBoundary {
           frame.transpose() * condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
       Mat stress1 = stress0;
       Vec velocity1;
-      const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
-      // A symmetry plane (a smooth wall): the normal velocity given (the wall's, 0 for a
-      // fixed plane), the tangential tractions zero.
-      const bool symmetry = condition.kind == BoundaryCondition<Dim>::Kind::symmetry;
       for (int k = 0; k < Dim; ++k) {
         const double invariant = k == 0 ? p_invariant : s_invariant[k];
         const double impedance = k == 0 ? z_p : z_s;
