@@ -248,11 +248,13 @@ int run_validate(const ValidateOptions& o) {
       {"taylor_bar", 51},          {"plate_small", 36},         {"rotation_2d_alpha1.2", 24},
       {"rotation_3d_alpha1.2", 20}, {"rotation_2d_alpha0.6", 17}, {"twisting_column_alpha0.6", 17},
       {"footing_tresca", 12},      {"rotation_3d_alpha0.6", 10}};
-  for (const auto& [name, seconds] : kLongestSeconds)  // a renamed case would lose its place
+  for (const auto& entry : kLongestSeconds) {  // a renamed case would lose its place
+    const std::string& name = entry.first;  // not a structured binding: clang 14 cannot capture one
     if (std::none_of(all.begin(), all.end(), [&](const Case& c) { return c.name == name; })) {
       fmt::print(stderr, "tsph: internal error: validate: the order names '{}', which is no case\n", name);
       return kExitFailure;
     }
+  }
   const auto expected_seconds = [&](const Case* c) {
     const auto it = kLongestSeconds.find(c->name);
     return it == kLongestSeconds.end() ? 0.0 : it->second;
