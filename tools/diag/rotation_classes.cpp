@@ -7,8 +7,7 @@
 //   rotation_classes CASE.toml [override...]
 //   env DIAG_EVERY: print every N steps (20); DIAG_PROBE=ID: one particle's velocity
 //   against the rigid one and its stress, every step.
-#include "engine/case/case_build.hpp"
-#include "engine/case/case_file.hpp"
+#include "tools/diag/diagnostic_run.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -20,13 +19,10 @@
 using namespace tsph;
 
 int main(int argc, char** argv) {
-  std::vector<std::string> overrides(argv + 2, argv + argc);
-  CaseFile c = load_case(argv[1], overrides);
-  BuiltCase<3> b = build_case<3>(c);
-  const double dt = b.dt;
-  TaylorSph<3> solver = make_solver<3>(c, b);
-  const std::int64_t steps = count_steps(c, dt);
-  const int every = std::getenv("DIAG_EVERY") ? std::atoi(std::getenv("DIAG_EVERY")) : 20;
+  DiagnosticRun<3> run(argc, argv, 20);
+  const CaseFile& c = run.c;
+  TaylorSph<3>& solver = run.solver;
+  const double dt = run.dt;
   const auto& r = solver.real();
   const std::size_t n = r.size();
   std::vector<int> cls(n), row(n), kind(n);
@@ -71,7 +67,7 @@ int main(int argc, char** argv) {
   double torque[4] = {0, 0, 0, 0}, by_row[4] = {0, 0, 0, 0}, by_kind[4] = {0, 0, 0, 0}, l0 = 0;
   for (std::size_t i = 0; i < n; ++i) l0 += r.mass[i] * omega * (r.position[0][i] * r.position[0][i] + r.position[1][i] * r.position[1][i]);
   std::vector<double> x0[3], v0[3];
-  for (std::int64_t s = 0; s < steps; ++s) {
+  for (std::int64_t s = 0; s < run.steps; ++s) {
     for (int d = 0; d < 3; ++d) { x0[d] = r.position[d]; v0[d] = r.velocity[d]; }
     solver.step(dt);
     for (std::size_t i = 0; i < n; ++i) {  // the torque of the velocity update about the midpoint position (z axis through 0)
@@ -91,7 +87,7 @@ int main(int argc, char** argv) {
       for (int m = 0; m < 6; ++m) std::printf(" %+.2e", r.stress[m][q]);
       std::printf("\n");
     }
-    if ((s + 1) % every == 0) {
+    if ((s + 1) % run.every == 0) {
       report(s + 1);
       std::printf("      torque by class / L0 (cumulative): %+.4e %+.4e %+.4e %+.4e\n", torque[0] / l0, torque[1] / l0, torque[2] / l0, torque[3] / l0);
       std::printf("      by row (0 1 2 >=3): %+.4e %+.4e %+.4e %+.4e   by surface (none, z faces, x/y faces, both): %+.4e %+.4e %+.4e %+.4e\n",

@@ -2,8 +2,7 @@
 // step by step, the change of the angular momentum split into the torque of the velocity
 // update (bulk and boundary particles) and the motion term m dx x v^{n+1}.
 //   rotation_drift CASE.toml [override...]   (env DIAG_EVERY: print every N steps)
-#include "engine/case/case_build.hpp"
-#include "engine/case/case_file.hpp"
+#include "tools/diag/diagnostic_run.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,13 +14,12 @@
 using namespace tsph;
 
 int main(int argc, char** argv) {
-  std::vector<std::string> overrides(argv + 2, argv + argc);
-  CaseFile c = load_case(argv[1], overrides);
-  BuiltCase<2> b = build_case<2>(c);
-  const double dt = b.dt;
-  TaylorSph<2> solver = make_solver<2>(c, b);
-  const std::int64_t steps = count_steps(c, dt);
-  const int every = std::getenv("DIAG_EVERY") ? std::atoi(std::getenv("DIAG_EVERY")) : 50;
+  DiagnosticRun<2> run(argc, argv, 50);
+  const CaseFile& c = run.c;
+  TaylorSph<2>& solver = run.solver;
+  const double dt = run.dt;
+  const std::int64_t steps = run.steps;
+  const int every = run.every;
   const auto& r = solver.real();
   const std::size_t n = r.size();
   auto centre = [&]() {
