@@ -1,11 +1,12 @@
 // The set-up the diagnostics in tools/diag share: a case file and its overrides from the
 // command line (CASE.toml [KEY=VALUE...]), the built case, its solver, the step and the
-// number of steps, and the print interval (env DIAG_EVERY).
+// number of steps, and the print interval (env DIAG_EVERY, at least 1).
 #pragma once
 
 #include "engine/case/case_build.hpp"
 #include "engine/case/case_file.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <string>
@@ -28,7 +29,7 @@ struct DiagnosticRun {
         dt(b.dt),
         solver(make_solver<Dim>(c, b)),
         steps(count_steps(c, dt)),
-        every(std::getenv("DIAG_EVERY") ? std::atoi(std::getenv("DIAG_EVERY")) : default_every) {}
+        every(std::max(1, std::getenv("DIAG_EVERY") ? std::atoi(std::getenv("DIAG_EVERY")) : default_every)) {}
 };
 
 }  // namespace tsph

@@ -27,22 +27,24 @@ int main(int argc, char** argv) {
   const std::size_t n = r.size();
   std::vector<int> cls(n), row(n), kind(n);
   for (std::size_t i = 0; i < n; ++i) {
-    int k = 0;
-    for (int d = 0; d < 3; ++d) {
-      const double X = r.initial_position[d][i];
-      if (std::abs(X - c.box_lower[d]) < 1e-9 || std::abs(X - c.box_upper[d]) < 1e-9) ++k;
-    }
-    cls[i] = k;
+    bool on_face[3];
     double depth = 1e30;
-    for (int d = 0; d < 3; ++d)
-      depth = std::min(depth, std::min(r.initial_position[d][i] - c.box_lower[d], c.box_upper[d] - r.initial_position[d][i]));
+    for (int d = 0; d < 3; ++d) {
+      const double below = r.initial_position[d][i] - c.box_lower[d], above = c.box_upper[d] - r.initial_position[d][i];
+      on_face[d] = std::abs(below) < 1e-9 || std::abs(above) < 1e-9;
+      depth = std::min(depth, std::min(below, above));
+    }
+    cls[i] = on_face[0] + on_face[1] + on_face[2];
     row[i] = std::min(3, static_cast<int>(std::lround(depth / c.spacing)));
-    const bool on_z = std::abs(std::abs(r.initial_position[2][i]) - c.box_upper[2]) < 1e-9;
-    const bool on_xy = std::abs(std::abs(r.initial_position[0][i]) - c.box_upper[0]) < 1e-9 ||
-                       std::abs(std::abs(r.initial_position[1][i]) - c.box_upper[1]) < 1e-9;
-    kind[i] = on_z && on_xy ? 3 : on_xy ? 2 : on_z ? 1 : 0;
+    const bool on_xy = on_face[0] || on_face[1];
+    kind[i] = on_face[2] && on_xy ? 3 : on_xy ? 2 : on_face[2] ? 1 : 0;
   }
-  const double omega = 2.0;
+  // The spin about z of the initial velocity gradient (row-major): omega = (L_yx - L_xy) / 2.
+  if (c.velocity_gradient.size() != 9) {
+    std::fprintf(stderr, "rotation_classes: the case needs initial.velocity_gradient (a spin about z)\n");
+    return 2;
+  }
+  const double omega = 0.5 * (c.velocity_gradient[3] - c.velocity_gradient[1]);
   auto report = [&](std::int64_t s) {
     double cx = 0, cy = 0, m = 0;
     for (std::size_t i = 0; i < n; ++i) { m += r.mass[i]; cx += r.mass[i] * r.position[0][i]; cy += r.mass[i] * r.position[1][i]; }
