@@ -96,11 +96,11 @@ struct MemoryModel {
 
 /// The plastic models' internal variables of a real particle
 /// (ParticleSet::carry_plastic_fields): the equivalent plastic strain, the plastic work,
-/// the temperature and the back stress (doubles), and the yield flag (1 B): 57 B in 2D,
-/// 73 B in 3D.
+/// the temperature, the back stress and the hourglass reference (doubles), and the yield
+/// flag (1 B): 73 B in 2D, 97 B in 3D.
 template <int Dim>
 constexpr double plastic_field_bytes() {
-  return 8.0 * (3 + stress_component_count<Dim>) + 1.0;
+  return 8.0 * (3 + stress_component_count<Dim> + Dim) + 1.0;
 }
 
 /// The volumetric average (engine/solver/stabilisation/volumetric_average.hpp), per real

@@ -90,16 +90,21 @@ class ParticleSet {
   /// User group number (from a particle file; 0 by default), for region selection. Optional.
   std::vector<std::int32_t> group;
   /// The internal variables of a plastic material model (engine/material/plastic_state.hpp),
-  /// held by the real set of a plastic run only (carry_plastic_fields; 73 B per particle
-  /// in 3D): the equivalent plastic strain, the plastic work per unit volume (J/m^3),
-  /// the temperature (K, Johnson-Cook), the back stress (kinematic hardening; the stress
-  /// components' order) and whether the last update was plastic (0/1). On demand: empty
-  /// unless carried, and `resize` does not create them.
+  /// held by the real set of a plastic run only (carry_plastic_fields; 97 B per particle
+  /// in 3D): the equivalent plastic strain, the plastic
+  /// work per unit volume (J/m^3), the temperature (K, Johnson-Cook), the back stress
+  /// (kinematic hardening; the stress components' order), whether the last update was
+  /// plastic (0/1) and the hourglass stiffness's reference. On demand: empty unless
+  /// carried, and `resize` does not create them.
   std::vector<double> plastic_strain;
   std::vector<double> plastic_work;
   std::vector<double> temperature;
   std::array<std::vector<double>, stress_count> back_stress;
   std::vector<std::uint8_t> yielding;
+  /// The hourglass stiffness's reference in a plastic run (m): the smooth part of the
+  /// residual it has taken in where the particle yielded (SolverSettings::hourglass_reference,
+  /// stabilisation/hourglass_stiffness.hpp); zero until then. A plastic field.
+  std::array<std::vector<double>, Dim> hourglass_reference;
 
   static constexpr std::int32_t kNoBoundary = -1;
 
@@ -156,6 +161,14 @@ class ParticleSet {
     release_plastic_fields();
   }
 
+  /// Whether `field` is a component of hourglass_reference (checkpoints of format 3 and 4
+  /// hold none).
+  bool is_hourglass_reference(const std::vector<double>& field) const {
+    for (const auto& a : hourglass_reference)
+      if (&field == &a) return true;
+    return false;
+  }
+
   /// Whether the set holds the plastic models' internal variables.
   bool carries_plastic_fields() const { return plastic_strain.size() == storage_size() && size() > 0; }
   /// Allocates the plastic fields (zero; the temperature at `temperature0`) unless held.
@@ -168,6 +181,7 @@ class ParticleSet {
     temperature.assign(n, temperature0);
     for (auto& a : back_stress) a.assign(n, 0.0);
     yielding.assign(n, 0);
+    for (auto& a : hourglass_reference) a.assign(n, 0.0);
   }
   void release_plastic_fields() {
     auto release = [](auto& field) { std::decay_t<decltype(field)>().swap(field); };
@@ -176,6 +190,7 @@ class ParticleSet {
     release(temperature);
     for (auto& a : back_stress) release(a);
     release(yielding);
+    for (auto& a : hourglass_reference) release(a);
   }
 
   /// Throws std::invalid_argument (naming `who`) unless every field holds size()
@@ -212,6 +227,7 @@ class ParticleSet {
     f(temperature);
     for (auto& a : back_stress) f(a);
     f(yielding);
+    for (auto& a : hourglass_reference) f(a);
   }
 
   /// Resizes every field; new particles are zeroed, ids numbered, unbounded. Optional
@@ -275,6 +291,8 @@ class ParticleSet {
   bool is_on_demand_field(const Field& field) const {
     const void* f = &field;
     for (const auto& a : back_stress)
+      if (f == &a) return true;
+    for (const auto& a : hourglass_reference)
       if (f == &a) return true;
     return f == &plastic_strain || f == &plastic_work || f == &temperature || f == &yielding;
   }

@@ -34,8 +34,8 @@ TYPED_TEST_SUITE(ParticleSetTest, Dimensions, DimName);
 /// (Dim each), stress, then mass, density, volume, id, boundary, group. A new field must
 /// be added here and to expect_same_particle.
 template <int Dim>
-constexpr int kFieldCount = 4 * Dim + stress_component_count<Dim> + 6 +
-                            stress_component_count<Dim> + 4;  // the plastic fields: back stress and four more
+constexpr int kFieldCount = 4 * Dim + stress_component_count<Dim> + 6 + stress_component_count<Dim> + 4 +
+                            Dim;  // the plastic fields: back stress, four more and the hourglass reference
 
 /// A value that identifies (particle id, field number); exact in both double and int.
 double tag(std::uint32_t id, int field) { return 1000.0 * field + id + 1.0; }
@@ -87,6 +87,7 @@ void expect_same_particle(const ParticleSet<Dim>& a, std::size_t p, const Partic
     EXPECT_EQ(a.temperature[p], b.temperature[q]);
     for (int s = 0; s < ParticleSet<Dim>::stress_count; ++s) EXPECT_EQ(a.back_stress[s][p], b.back_stress[s][q]);
     EXPECT_EQ(a.yielding[p], b.yielding[q]);
+    for (int d = 0; d < Dim; ++d) EXPECT_EQ(a.hourglass_reference[d][p], b.hourglass_reference[d][q]);
   }
 }
 

@@ -21,6 +21,7 @@
 #include <random>
 #include <sstream>
 #include <thread>
+#include <type_traits>
 
 #include <fmt/core.h>
 #include <fmt/format.h>
@@ -67,6 +68,37 @@ output::Checkpoint<2> small_checkpoint() {
   return c;
 }
 
+/// The bytes of `c`'s checkpoint (format 5) as the format `format` (3 or 4) held them: without
+/// the hourglass reference of both sets (ParticleSet::hourglass_reference: a count and the
+/// values per component), format 3 also without the ledger; magic, size and checksum set.
+std::vector<char> as_older_format(const std::vector<char>& written, const output::Checkpoint<2>& c, char format) {
+  std::vector<char> bytes;
+  std::size_t at = output::detail::kCheckpointPrefixBytes + 4 + 8 + c.physics.size() + 4 + 8 + 8 + 8;
+  std::size_t copied = 0;
+  for (const ParticleSet<2>* set : {&c.real, &c.virtual_particles}) {
+    at += 8;
+    ParticleSet<2> copy = *set;
+    copy.for_each_field([&](auto& field) {
+      const std::size_t size = 8 + field.size() * sizeof(field[0]);
+      if constexpr (std::is_same_v<std::decay_t<decltype(field)>, std::vector<double>>)
+        if (copy.is_hourglass_reference(field)) {
+          bytes.insert(bytes.end(), written.begin() + static_cast<std::ptrdiff_t>(copied),
+                       written.begin() + static_cast<std::ptrdiff_t>(at));
+          copied = at + size;
+        }
+      at += size;
+    });
+  }
+  bytes.insert(bytes.end(), written.begin() + static_cast<std::ptrdiff_t>(copied), written.end());
+  if (format == '3') bytes.resize(bytes.size() - (7 * 8 + 2 * 8 + 2 * 8));  // the ledger: 7 doubles, two counts, 2 doubles
+  bytes[7] = format;
+  const std::uint64_t body = bytes.size() - output::detail::kCheckpointPrefixBytes;
+  const std::uint32_t crc = output::detail::crc32_of(bytes.data() + output::detail::kCheckpointPrefixBytes, body);
+  std::memcpy(bytes.data() + 8, &body, sizeof body);
+  std::memcpy(bytes.data() + 16, &crc, sizeof crc);
+  return bytes;
+}
+
 std::string refusal(const std::vector<char>& bytes) {
   try {
     (void)output::parse_checkpoint<2>(bytes, "k.bin");
@@ -104,19 +136,37 @@ TEST(CheckpointIntegrity, EnergyLedgerRoundTripAndFormatThree) {
   EXPECT_EQ(read.energy.boundary, written.energy.boundary);
   EXPECT_EQ(read.energy.hourglass, -3.0);
   EXPECT_EQ(read.energy.initial_energy, 7.0);
-  // Format 3: magic "TSPHCKP3", the ledger's bytes (7 doubles, two counts, 2 doubles) gone.
-  std::vector<char> bytes = read_all(dir / "k.bin");
-  bytes.resize(bytes.size() - (7 * 8 + 2 * 8 + 2 * 8));
-  bytes[7] = '3';
-  const std::uint64_t body = bytes.size() - 20;
-  const std::uint32_t crc = output::detail::crc32_of(bytes.data() + 20, body);
-  std::memcpy(bytes.data() + 8, &body, sizeof body);
-  std::memcpy(bytes.data() + 16, &crc, sizeof crc);
-  const auto old = output::parse_checkpoint<2>(bytes, "k3.bin");
+  // Format 3: magic "TSPHCKP3", the ledger's bytes and the hourglass reference gone.
+  const auto old = output::parse_checkpoint<2>(as_older_format(read_all(dir / "k.bin"), written, '3'), "k3.bin");
   EXPECT_EQ(old.steps, 42);
   EXPECT_EQ(old.real.stress[2], written.real.stress[2]);
   EXPECT_TRUE(old.energy.boundary.empty());
   EXPECT_TRUE(std::isnan(old.energy.initial_energy));
+  fs::remove_all(dir);
+}
+
+// Format 5 holds the hourglass reference among the plastic fields; a format 4 file (the
+// same without it) is read with the reference zero, the other plastic fields as written.
+TEST(CheckpointIntegrity, HourglassReferenceRoundTripAndFormatFour) {
+  const fs::path dir = scratch("reference");
+  auto written = small_checkpoint();
+  written.real.carry_plastic_fields(293.0);
+  for (std::size_t i = 0; i < written.real.size(); ++i) {
+    written.real.plastic_strain[i] = 0.01 * static_cast<double>(i);
+    written.real.hourglass_reference[0][i] = 1e-6 * static_cast<double>(i + 1);
+    written.real.hourglass_reference[1][i] = -2e-6 * static_cast<double>(i + 1);
+  }
+  output::write_checkpoint((dir / "k.bin").string(), written);
+  const auto read = output::read_checkpoint<2>((dir / "k.bin").string());
+  EXPECT_EQ(read.real.hourglass_reference, written.real.hourglass_reference);
+  EXPECT_EQ(read.real.plastic_strain, written.real.plastic_strain);
+  EXPECT_TRUE(read.virtual_particles.hourglass_reference[0].empty());
+  const auto old = output::parse_checkpoint<2>(as_older_format(read_all(dir / "k.bin"), written, '4'), "k4.bin");
+  EXPECT_EQ(old.real.plastic_strain, written.real.plastic_strain);
+  EXPECT_EQ(old.real.temperature, written.real.temperature);
+  for (int d = 0; d < 2; ++d) EXPECT_EQ(old.real.hourglass_reference[d], std::vector<double>(7, 0.0));
+  EXPECT_TRUE(old.virtual_particles.hourglass_reference[0].empty());
+  EXPECT_EQ(old.energy.boundary, written.energy.boundary);
   fs::remove_all(dir);
 }
 

@@ -418,6 +418,9 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.material_velocity_motion = c.material_velocity_motion;
   b.settings.hourglass_kick = c.hourglass_kick == "midpoint" ? SolverSettings<Dim>::HourglassKick::midpoint
                                                              : SolverSettings<Dim>::HourglassKick::predicted;
+  b.settings.hourglass_reference = c.hourglass_reference == "initial"
+                                       ? SolverSettings<Dim>::HourglassReference::initial
+                                       : SolverSettings<Dim>::HourglassReference::flow;
   b.settings.surface_motion = c.surface_motion == "shepard" ? SolverSettings<Dim>::SurfaceMotion::shepard
                                                             : SolverSettings<Dim>::SurfaceMotion::linear;
   b.settings.conservative_momentum = c.conservative_momentum;

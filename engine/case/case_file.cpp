@@ -313,6 +313,7 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
         m.real("hourglass_stiffness", false, "0.05", [](double k) { return k >= 0.0 && k <= 1.0; },
                "must lie in [0, 1]").value_or(kAutomaticOption);
     c.hourglass_kick = m.text("hourglass_kick", false, {"predicted", "midpoint"}).value_or("predicted");
+    c.hourglass_reference = m.text("hourglass_reference", false, {"flow", "initial"}).value_or("flow");
     const std::string wall =
         m.text("velocity_wall", false, {"automatic", "characteristics", "wall_gradient"}).value_or("automatic");
     c.velocity_wall = wall == "wall_gradient"     ? CaseFile::VelocityWall::wall_gradient

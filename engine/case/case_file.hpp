@@ -126,6 +126,7 @@ struct CaseFile {
   double hourglass = kAutomaticOption;             ///< SolverSettings::hourglass_coefficient
   double hourglass_stiffness = kAutomaticOption;  ///< SolverSettings::hourglass_stiffness
   std::string hourglass_kick = "predicted";  ///< SolverSettings::hourglass_kick: predicted, midpoint
+  std::string hourglass_reference = "flow";  ///< SolverSettings::hourglass_reference: flow, initial
   /// method.velocity_wall: SolverSettings::velocity_wall (the same names and order).
   enum class VelocityWall { automatic, characteristics, wall_gradient };
   VelocityWall velocity_wall = VelocityWall::automatic;

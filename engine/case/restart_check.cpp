@@ -130,6 +130,11 @@ std::string physics_record(const CaseFile& c) {
   r.add("method.hourglass_stiffness", options.hourglass_stiffness);
   // With the stiffness on only: a checkpoint of a run without it still matches.
   if (options.hourglass_stiffness > 0.0) r.add_text("method.hourglass_kick", c.hourglass_kick);
+  // A plastic run with the stiffness and the reference following the flow only: a
+  // checkpoint written before 2026-12-07 (the initial reference) matches a restart with
+  // `method.hourglass_reference = "initial"`, and is refused naming the key otherwise.
+  if (options.hourglass_stiffness > 0.0 && c.plasticity.model != "elastic" && c.hourglass_reference == "flow")
+    r.add_text("method.hourglass_reference", c.hourglass_reference);
   // The wall gradient acts on velocity walls ("fixed", "velocity") and moving smooth
   // walls only. Where there is none, an automatic velocity_wall records the rule of
   // before 2026-12-06 (the wall gradient for an elastic material in 2D and 3D only), so

@@ -5,10 +5,11 @@
 // the next in small-strain runs: its neighbour lists, normals and boundary slots are
 // rebuilt from the particles when it is constructed.
 //
-// Format 4 (the energy ledger, engine/solver/energy_ledger.hpp, after the error records;
-// format 3 is read with an empty ledger), format 3 (issue 16: the plastic fields of
-// ParticleSet, empty in elastic runs; format 2, "TSPHCKP2", is refused naming its
-// format) and, as format 2 (issue 15, docs/reliability.md): the magic "TSPHCKP4", the byte count of the
+// Format 5 (2026-12-07: ParticleSet::hourglass_reference among the plastic fields; formats
+// 3 and 4 are read with it zero), format 4 (the energy ledger, engine/solver/energy_ledger.hpp,
+// after the error records; format 3 is read with an empty ledger), format 3 (issue 16: the
+// plastic fields of ParticleSet, empty in elastic runs; format 2, "TSPHCKP2", is refused
+// naming its format) and, as format 2 (issue 15, docs/reliability.md): the magic "TSPHCKP5", the byte count of the
 // body (uint64) and zlib's crc32 of the body (uint32), then the body: the record of the
 // case's resolved physics (engine/case/physics_record.hpp: one "key = value" line per
 // key, and its crc32) followed by the state. A damaged file (a flipped bit, overwritten
@@ -74,12 +75,13 @@ struct CheckpointHeader {
   std::int32_t dimension = 0;
   double time = 0.0;
   std::int64_t steps = 0;
-  int format = 4;  ///< 3: no energy ledger
+  int format = 5;  ///< 3: no energy ledger; 3 and 4: no hourglass reference
 };
 
 namespace detail {
 
-constexpr char kCheckpointMagic[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '4'};
+constexpr char kCheckpointMagic[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '5'};
+constexpr char kCheckpointMagicFormat4[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '4'};
 constexpr char kCheckpointMagicFormat3[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '3'};
 constexpr char kCheckpointMagicFormat1[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '1'};
 constexpr char kCheckpointMagicFormat2[8] = {'T', 'S', 'P', 'H', 'C', 'K', 'P', '2'};
@@ -247,7 +249,8 @@ inline CheckpointHeader verify_checkpoint(Reader& r, std::size_t file_bytes, con
     throw CheckpointError(where + " is of format 2 (tsph before issue 16), which holds no plastic state: start the "
                           "run again (or continue it with the tsph that wrote it)");
   const bool format3 = std::memcmp(magic, kCheckpointMagicFormat3, 8) == 0;
-  if (!format3 && std::memcmp(magic, kCheckpointMagic, 8) != 0)
+  const bool format4 = std::memcmp(magic, kCheckpointMagicFormat4, 8) == 0;
+  if (!format3 && !format4 && std::memcmp(magic, kCheckpointMagic, 8) != 0)
     throw CheckpointError("'" + path + "' is not a tsph checkpoint");
   if (file_bytes < kCheckpointPrefixBytes)
     throw CheckpointError(where + " is damaged: size check failed (truncated to " + std::to_string(file_bytes) +
@@ -265,7 +268,7 @@ inline CheckpointHeader verify_checkpoint(Reader& r, std::size_t file_bytes, con
                           ", recorded " + std::to_string(crc) + ")");
   CheckpointHeader h;
   h.path = path;
-  h.format = format3 ? 3 : 4;
+  h.format = format3 ? 3 : format4 ? 4 : 5;
   h.checksum = crc;
   try {
     h.physics_checksum = r.get<std::uint32_t>();
@@ -321,7 +324,14 @@ Checkpoint<Dim> parse_checkpoint(std::vector<char> data, const std::string& path
     c.frames = r.get<std::uint64_t>();
     for (ParticleSet<Dim>* set : {&c.real, &c.virtual_particles}) {
       const auto n = r.get<std::uint64_t>();
-      set->for_each_field([&r, n](auto& field) { r.get_vector(field, n); });
+      const bool without_reference = h.format < 5;
+      set->for_each_field([&r, n, set, without_reference](auto& field) {
+        if constexpr (std::is_same_v<std::decay_t<decltype(field)>, std::vector<double>>)
+          if (without_reference && set->is_hourglass_reference(field)) return;  // not in formats 3 and 4
+        r.get_vector(field, n);
+      });
+      if (without_reference && set->carries_plastic_fields())  // zero: as at the start of a run
+        for (auto& a : set->hourglass_reference) a.assign(set->storage_size(), 0.0);
       try {  // released optional fields (the solver's virtual set) come back released
         set->check_field_sizes("checkpoint '" + path + "'");
       } catch (const std::invalid_argument& e) {

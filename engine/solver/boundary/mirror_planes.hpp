@@ -251,6 +251,7 @@ struct MirrorPlanes {
       };
       reflect_stress(set.stress);
       reflect_stress(set.back_stress);
+      reflect_points(set.hourglass_reference, false);
     });
   }
 };

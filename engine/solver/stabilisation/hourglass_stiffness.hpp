@@ -138,11 +138,6 @@ class HourglassStiffness {
         fits[owned + g] = f;
       }
     };
-    auto mirror_vectors = [&](std::vector<Vec>& values, const typename MirrorGhosts<Dim>::Images& images,
-                              std::size_t owned) {
-      for (std::size_t g = 0; g < images.source.size(); ++g)
-        values[owned + g] = mirror.reflect_direction(images.planes[g], values[images.source[g]]);
-    };
     // A: virtual values a_v = sum_J A_vJ u_J. A's fit and weights A_vJ depend on the
     // initial coordinates, the list and which of its pairs lie within the support now:
     // kept along the list (support_weights_, forward_in_support_) and computed again for a
@@ -211,7 +206,7 @@ class HourglassStiffness {
     });
     if (mirror.active()) {
       mirror_fits(forward_fit_, mirror.virtual_, virtual_count);
-      mirror_vectors(virtual_value_, mirror.virtual_, virtual_count);
+      mirror_directions(mirror, virtual_value_, mirror.virtual_, virtual_count);
       for (std::size_t g = 0; g < mirror.virtual_.source.size(); ++g)
         forward_version_[virtual_count + g] = forward_version_[mirror.virtual_.source[g]];
     }
@@ -241,7 +236,11 @@ class HourglassStiffness {
       });
       return_weights_build_ = hourglass_list_generation_;
     }
-    // R: r_I = u_I - sum_v R_Iv a_v, weighted by V_I.
+    // R: r_I = u_I - sum_v R_Iv a_v, weighted by V_I (less the reference where it follows
+    // the flow: take_flow_into_reference).
+    const bool follows_flow = state.settings.hourglass_reference == SolverSettings<Dim>::HourglassReference::flow &&
+                              state.real.carries_plastic_fields();
+    if (follows_flow) total_residual_.resize(state.real.storage_size());
     parallel_for(real_count, [&](std::size_t i) {
       const auto nb = hourglass_from_virtual_.neighbors(i);
       const double* weight = return_weight_.data() + hourglass_from_virtual_.row_begin(i);
@@ -250,9 +249,11 @@ class HourglassStiffness {
         residual = displacement(static_cast<std::uint32_t>(i));
         for (std::size_t k = 0; k < nb.size(); ++k) residual -= weight[k] * virtual_value_[nb[k]];
       }
-      round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * residual;
+      if (follows_flow) total_residual_[i] = residual;
+      else round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * residual;
     });
-    if (mirror.active()) mirror_vectors(round_trip_residual_, mirror.real, real_count);
+    if (follows_flow) take_flow_into_reference(state);
+    if (mirror.active()) mirror_directions(mirror, round_trip_residual_, mirror.real, real_count);
     if (state.settings.energy_ledger)  // E = k/2 sum_I V_I |r_I|^2 (round_trip_residual_ holds V_I r_I)
       state.energy.hourglass_energy = 0.5 * stiffness * deterministic_sum(real_count, [&](std::size_t i) {
         return state.share(i) * round_trip_residual_[i].squaredNorm() * state.real.density[i] / state.real.mass[i];
@@ -266,7 +267,7 @@ class HourglassStiffness {
         if (return_fit_[nb[k]].weight_sum > 0.0) sum += weight[k] * round_trip_residual_[nb[k]];
       virtual_value_[v] = sum;
     });
-    if (mirror.active()) mirror_vectors(virtual_value_, mirror.virtual_, virtual_count);
+    if (mirror.active()) mirror_directions(mirror, virtual_value_, mirror.virtual_, virtual_count);
     // F_J = -k (V_J r_J - sum_v A_vJ s_v).
     const bool ledger = state.settings.energy_ledger;
     if (ledger) kick_.resize(real_count);
@@ -330,6 +331,60 @@ class HourglassStiffness {
   const std::vector<Vec>& kicks() const { return kick_; }
 
  private:
+  /// The ghosts' entries of a per-particle vector field: their owned particles' values,
+  /// reflected across the ghost's plane (values[owned + g] for ghost g of `images`).
+  static void mirror_directions(const MirrorGhosts<Dim>& mirror, std::vector<Vec>& values,
+                                const typename MirrorGhosts<Dim>::Images& images, std::size_t owned) {
+    for (std::size_t g = 0; g < images.source.size(); ++g)
+      values[owned + g] = mirror.reflect_direction(images.planes[g], values[images.source[g]]);
+  }
+
+  /// SolverSettings::hourglass_reference = flow in a plastic material: the spring above
+  /// acts on r_I - p_I, p_I = ParticleSet::hourglass_reference. A particle that yields in
+  /// the step takes the smooth part of its residual into its reference,
+  ///     p_I = (R A r)_I,
+  /// the round trip of the residual field (the same fits as above). The round trip
+  /// reproduces linear fields and is zero on the invisible ones, so p_I follows the
+  /// residual that the curvature of a smooth flow leaves (r = O(dx^2 grad grad u), which
+  /// grows with the total displacement of a plastic flow and made the spring resist it:
+  /// the quarter Taylor bar's impact face 5.1 % short at R0 / 8) while a checkerboard or
+  /// an odd-even column stays restored at the full stiffness, yielding or not. Outside
+  /// the plastic zone p_I stays where the particle last yielded (zero if never): the
+  /// elastic spring of before. Resetting the whole residual instead (p_I = r_I) leaves
+  /// the hourglass modes of the plastic zone free: the coarse quarter bar gains energy and
+  /// diverges (docs/notes/2026-12-07-hourglass-reference.md).
+  void take_flow_into_reference(SolverState<Dim>& state) {
+    const std::size_t real_count = state.real.size(), virtual_count = state.virtual_.size();
+    const MirrorGhosts<Dim>& mirror = state.mirror;
+    if (mirror.active()) mirror_directions(mirror, total_residual_, mirror.real, real_count);
+    // A: the residual's values at the virtual particles (virtual_value_ is free until the
+    // transposed trip).
+    parallel_for(virtual_count, [&](std::size_t v) {
+      Vec value = Vec::Zero();
+      if (forward_fit_[v].weight_sum > 0.0) {
+        const std::uint32_t* entries = support_entries_.data() + support_begin_[v];
+        const double* weight = support_weights_.data() + support_begin_[v];
+        for (std::uint32_t m = 0; m < support_count_[v]; ++m) value += weight[m] * total_residual_[entries[m]];
+      }
+      virtual_value_[v] = value;
+    });
+    if (mirror.active()) mirror_directions(mirror, virtual_value_, mirror.virtual_, virtual_count);
+    // R, at the particles that yield; then V_I (r_I - p_I) at every one.
+    auto& reference = state.real.hourglass_reference;
+    parallel_for(real_count, [&](std::size_t i) {
+      if (state.real.yielding[i] != 0 && return_fit_[i].weight_sum > 0.0) {
+        const auto nb = hourglass_from_virtual_.neighbors(i);
+        const double* weight = return_weight_.data() + hourglass_from_virtual_.row_begin(i);
+        Vec smooth = Vec::Zero();
+        for (std::size_t k = 0; k < nb.size(); ++k) smooth += weight[k] * virtual_value_[nb[k]];
+        for (int d = 0; d < Dim; ++d) reference[d][i] = smooth[d];
+      }
+      Vec relative = total_residual_[i];
+      for (int d = 0; d < Dim; ++d) relative[d] -= reference[d][i];
+      round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * relative;
+    });
+  }
+
 
   /// One linear least-squares fit u(X) ~ a + B (X - X_0) over a stencil (see
   /// apply): the value a = sum_J c^T p_J (w_J / w) u_J, with
@@ -395,7 +450,8 @@ class HourglassStiffness {
   std::vector<double> transposed_return_weight_;  ///< R_Iv along hourglass_to_real_ (per list build)
   std::int64_t return_weights_build_ = -1;        ///< hourglass_list_generation_ of return_fit_ and the weights
   std::vector<Vec> virtual_value_;             ///< a_v, then s_v
-  std::vector<Vec> round_trip_residual_;       ///< V_I r_I
+  std::vector<Vec> round_trip_residual_;       ///< V_I r_I (V_I (r_I - p_I) where the reference follows the flow)
+  std::vector<Vec> total_residual_;            ///< r_I, where the reference follows the flow
   NeighborList hourglass_from_virtual_;  ///< rows: real; entries: virtual (initial coordinates)
   NeighborList hourglass_to_real_;       ///< its transpose
   double hourglass_radius_ = 0.0;
