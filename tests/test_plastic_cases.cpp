@@ -326,6 +326,79 @@ fields = ["stress"]
   EXPECT_LT(corner_deviation, 0.012 * impedance * v0);
 }
 
+// A wall-free edge (FreeEdge::wall_free_normal): a block on a smooth wall (a symmetry
+// plane at y = 0), free elsewhere, starts at rest with a uniform sigma_xx = s. In the
+// first step every half-step field is still uniform, so a free side's outgoing P
+// characteristic reads t_x - Z u_x = s exactly and the side releases at u_x = -s / Z along
+// its outward normal. The bottom corners are wall particles (the wall's condition comes
+// last); they take the free side's condition too: sigma_xx = sigma_xy = 0 and the side's
+// release velocity. Before, nothing imposed the free side there: the corner kept
+// sigma_xx = s and u_x = 0 (the wall's S characteristic), and at the Taylor bar's rim the
+// bulk's radial compression pushed the rim particles out
+// (docs/notes/2026-12-07-hourglass-reference.md).
+TEST(SymmetryPlane, WallFreeEdgeTakesTheFreeSidesTraction) {
+  const double s = 1e3, young = 1e6, nu = 0.3, rho = 1000.0;
+  const double lame = young * nu / ((1 + nu) * (1 - 2 * nu)), mu = young / (2 * (1 + nu));
+  const double impedance = std::sqrt(rho * (lame + 2 * mu));
+  const std::string text = R"(
+dimension = 2
+[geometry]
+spacing = 0.01
+box = { lower = [0.0, 0.0], upper = [0.1, 0.05] }
+[material]
+E = 1e6
+nu = 0.3
+rho = 1000.0
+plane = "strain"
+[method]
+alpha = 1.2
+# the bare scheme: the stabilisations act on the first step's surface rows
+hourglass = 0.0
+hourglass_stiffness = 0.0
+surface_extrapolation = false
+[initial]
+stress = [1e3, 0.0, 0.0, 300.0]
+[time]
+dt = 1e-4
+end = 1e-4
+[[boundary]]
+name = "free"
+type = "free"
+region = [{ type = "half_space", point = [0.0, 0.0], normal = [-1.0, 0.0] },
+          { type = "half_space", point = [0.1, 0.0], normal = [1.0, 0.0] },
+          { type = "half_space", point = [0.0, 0.05], normal = [0.0, 1.0] }]
+[[boundary]]
+name = "wall"
+type = "symmetry"
+region = { type = "half_space", point = [0.0, 0.0], normal = [0.0, -1.0] }
+[output]
+times = [1e-4]
+fields = ["velocity", "stress"]
+)";
+  const LastFrame f = run_text(text, "wall_free_edge");
+  const auto& v = f.arrays.at("velocity");
+  const auto& stress = f.arrays.at("stress");
+  int corners = 0, sides = 0;
+  for (std::size_t i = 0; i < f.count; ++i) {
+    const double x = f.points[3 * i], y = f.points[3 * i + 1];  // moved by |v| dt < 3e-6 m
+    const bool left = x < 1e-4, right = x > 0.1 - 1e-4;
+    if (!left && !right) continue;
+    const double release = (left ? 1.0 : -1.0) * s / impedance;  // u_m = -s / Z, m = -x or +x
+    if (y < 1e-4) {  // a corner on the wall
+      EXPECT_NEAR(stress[6 * i], 0.0, 1e-9 * s) << "x = " << x;      // sigma_xx
+      EXPECT_NEAR(stress[6 * i + 3], 0.0, 1e-9 * s) << "x = " << x;  // sigma_xy
+      EXPECT_NEAR(v[3 * i], release, 1e-9 * std::abs(release)) << "x = " << x;
+      EXPECT_EQ(v[3 * i + 1], 0.0) << "x = " << x;
+      ++corners;
+    } else if (std::abs(y - 0.02) < 1e-4) {  // the middle of a side: the same release
+      EXPECT_NEAR(v[3 * i], release, 1e-9 * std::abs(release)) << "x = " << x;
+      ++sides;
+    }
+  }
+  EXPECT_EQ(corners, 2);
+  EXPECT_EQ(sides, 2);
+}
+
 // A square rod with free lateral faces, fixed at x = 0 and pressed at x = L (updated
 // Lagrangian, alpha 1.2): the quarter y, z >= 0 between two symmetry planes against the
 // whole rod, particle by particle. The planes take the characteristic boundary treatment

@@ -72,7 +72,9 @@ struct SolverSettings {
   /// (ParticleSet::hourglass_reference), so the spring restores the invisible modes but
   /// not the curvature of the plastic flow; initial (before), the residual of the total
   /// displacement, which resists the flow (the quarter Taylor bar's radius -5.1 % at
-  /// R0 / 8, -2.7 % with flow; stabilisation/hourglass_stiffness.hpp).
+  /// R0 / 8 and R0 / 10; with flow and the wall-free edge -4.3 % and -3.4 %, where flow
+  /// alone diverged at R0 / 10 from the rim: stabilisation/hourglass_stiffness.hpp,
+  /// docs/notes/2026-12-07-wall-free-edge.md).
   enum class HourglassReference { flow, initial };
   HourglassReference hourglass_reference = HourglassReference::flow;
   /// Stress of the particles on a prescribed-velocity surface (a clamp): by the

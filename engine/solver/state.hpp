@@ -44,6 +44,10 @@ struct BoundaryParticles {
   /// axis-parallel edge it lies on with its normal between the faces (3D,
   /// FreeEdge::uniaxial_edge_axis), else -1
   std::vector<std::int8_t> edge_axis;
+  /// Likewise: 1 for a particle of a symmetry condition (a smooth wall) with a particle of
+  /// a traction condition one spacing from it, i.e. on the edge where a free face meets
+  /// the wall (FreeEdge::wall_free_normal)
+  std::vector<char> wall_edge;
   std::vector<Vec> normal;               ///< outward unit normal (boundary/normals.hpp)
   std::vector<StressVector<Dim>> stress;  ///< sigma^n
   std::vector<Vec> velocity;             ///< v^n
@@ -92,7 +96,7 @@ struct BoundaryParticles {
 
   template <class F>
   void for_each_field(F&& f) {
-    f(particle), f(profile), f(on_surface), f(box_corner), f(edge_axis), f(normal), f(stress), f(velocity), f(density);
+    f(particle), f(profile), f(on_surface), f(box_corner), f(edge_axis), f(wall_edge), f(normal), f(stress), f(velocity), f(density);
     f(stress_gradient), f(velocity_gradient), f(half_stress_gradient), f(half_velocity_gradient);
     f(half_velocity), f(normal_moment), f(gradient_sum), f(full_rank_gradient), f(linear_half_row), f(half_span), f(extra_plane), f(extra_normal);
     f(face_area);
@@ -113,6 +117,7 @@ struct BoundaryParticles {
     on_surface.assign(n, 1);
     box_corner.assign(n, 0);
     edge_axis.assign(n, -1);
+    wall_edge.assign(n, 0);
     normal.assign(n, Vec::Zero());
     stress.assign(n, StressVector<Dim>{});
     velocity.assign(n, Vec::Zero());

@@ -111,6 +111,30 @@ struct CharacteristicBoundary {
            modulus;
   }
 
+  /// The velocity u_m at n+1 of boundary slot b along the outward normal m of a
+  /// traction-free face through it (a wall-free edge), from that face's outgoing P
+  /// characteristic (the file comment's relation along m) with t_m = 0 at n+1:
+  ///   t_m - Z u_m = (t_m - Z u_m)^n - c_p dt d_m (t_m - Z u_m)^n
+  ///                 + dt (lambda div_t v_t - c_p div_t (sigma m)_t - Z b_m),
+  /// d_m at n from the real set, div_t over the directions orthogonal to m at n+1/2 from the
+  /// virtual set (as corner_stretch and the 2D free corner).
+  static double free_face_velocity(const SolverState<Dim>& state, std::size_t b, const Vec& m, const Vec& force,
+                                   double dt, double c_p, double z_p, double lame) {
+    const Mat sigma0 = in_plane<Dim>(state.boundary.stress[b]);
+    const double tm0 = m.dot(sigma0 * m), um0 = m.dot(state.boundary.velocity[b]);
+    const double dm_tm = m.dot(directional<Dim>(state.boundary.stress_gradient[b], m) * m);
+    const double dm_um = m.dot(state.boundary.velocity_gradient[b] * m);
+    const Mat projector = Mat::Identity() - m * m.transpose();
+    const double velocity_divergence = (projector * state.boundary.half_velocity_gradient[b]).trace();
+    double traction_divergence = 0.0;
+    for (int d = 0; d < Dim; ++d)
+      traction_divergence +=
+          projector.row(d).dot(directional<Dim>(state.boundary.half_stress_gradient[b], Vec::Unit(d)) * m);
+    const double invariant = tm0 - z_p * um0 - c_p * dt * (dm_tm - z_p * dm_um) +
+                             dt * (lame * velocity_divergence - c_p * traction_divergence - z_p * force.dot(m));
+    return -invariant / z_p;
+  }
+
   /// A further plane's unit normal m (symmetry_planes.hpp: its sign follows the kernel
   /// normal, which the projections do not mind) turned to point out of the body: the real
   /// neighbours of particle i lie on its inner side.
@@ -310,8 +334,8 @@ struct CharacteristicBoundary {
         tangential_divergence += velocity_dt(k, k);
         p_rhs += lame * velocity_dt(k, k) - c_p * stress_dt[k](k, 0);
       }
-      const double p_invariant = stress0(0, 0) - z_p * velocity0[0] -
-                                 c_p * dt * (stress_dn(0, 0) - z_p * velocity_dn[0]) + dt * p_rhs;
+      double p_invariant = stress0(0, 0) - z_p * velocity0[0] -
+                           c_p * dt * (stress_dn(0, 0) - z_p * velocity_dn[0]) + dt * p_rhs;
       std::array<double, Dim> s_invariant{};
       for (int k = 1; k < Dim; ++k) {
         double s_rhs = shear * velocity_dt(0, k) - z_s * force[k] + jaumann(0, k);
@@ -323,6 +347,33 @@ struct CharacteristicBoundary {
       // Incoming invariants from the prescribed velocity or traction.
       const Vec prescribed =
           frame.transpose() * condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new);
+      // A wall-free edge (FreeEdge::wall_free_normal; a wall particle with a free face next
+      // to it): the free face's sigma_mm = 0 at n+1 sets the stretch d_m u_m, as a free
+      // face's zero traction sets its normal stretch (gradient(0, 0) below). The wall's
+      // normal stretch d_n u_n does not depend on the tangential ones (the lambda div_t v_t
+      // of its outgoing invariant is taken back out below), so it comes first:
+      //   M d_m u_m = -sigma_mm^n / dt - J_mm - lambda (d_n u_n + div v - d_n u_n - d_m u_m),
+      // the last bracket the rest of the tangential divergence (the edge's direction, 3D).
+      // The stretch replaces the virtual set's one-sided estimate in the tangential
+      // divergence, the wall's invariant and the tangential stresses; the velocity along
+      // m and the zero shear on m follow after the constitutive update.
+      const Vec wall_free_m = symmetry && state.boundary.full_rank_gradient[b]
+                                  ? FreeEdge<Dim>::wall_free_normal(state, b, i, n, t_new)
+                                  : Vec::Zero();
+      if (wall_free_m.squaredNorm() > 0.0) {
+        const Vec m_frame = frame.transpose() * wall_free_m;
+        const double wall_stretch =
+            ((p_invariant + z_p * prescribed[0] - stress0(0, 0)) / dt - jaumann(0, 0) - lame * tangential_divergence) /
+            modulus;
+        const double stretch_m = m_frame.dot(velocity_dt * m_frame);
+        const double along_edge = tangential_divergence - stretch_m;
+        const double target = (-m_frame.dot(stress0 * m_frame) / dt - m_frame.dot(jaumann * m_frame) -
+                               lame * (wall_stretch + along_edge)) /
+                              modulus;
+        velocity_dt += (target - stretch_m) * (m_frame * m_frame.transpose());
+        tangential_divergence += target - stretch_m;
+        p_invariant += dt * lame * (target - stretch_m);
+      }
       Mat stress1 = stress0;
       Vec velocity1;
       for (int k = 0; k < Dim; ++k) {
@@ -403,6 +454,17 @@ struct CharacteristicBoundary {
         const double invariant = tm0 - z_p * um0 - c_p * dt * (dm_tm - z_p * dm_um) +
                                  dt * (lame * dn_vn - c_p * dn_snm - z_p * force_global.dot(m));
         velocity_global += (-invariant / z_p - m.dot(velocity_global)) * m;  // t_m = 0 at n+1
+      }
+      // The wall-free edge (above): the free face's zero shear, sigma <- P sigma P with
+      // P = I - m m^T, and the velocity along m from the free face's outgoing P
+      // characteristic with t_m = 0 at n+1 (as at a free corner: the own frame gave u_m from
+      // the wall's S characteristic).
+      if (wall_free_m.squaredNorm() > 0.0) {
+        const Mat projector = Mat::Identity() - wall_free_m * wall_free_m.transpose();
+        stress_global = projector * stress_global * projector;
+        velocity_global += (free_face_velocity(state, b, wall_free_m, force_global, dt, c_p, z_p, lame) -
+                            wall_free_m.dot(velocity_global)) *
+                           wall_free_m;
       }
       // Further symmetry planes (an axis, a free edge or a wall crossing a plane).
       if (SymmetryPlanes<Dim>::any(state, b)) SymmetryPlanes<Dim>::project(state, b, t_new, velocity_global, stress_global);

@@ -2,7 +2,8 @@
 // particle on a convex axis-parallel edge, instead of the characteristic relations on
 // its diagonal kernel normal, which leave the shear sigma_xy = -sigma_xz free; and the
 // free corners of 2D bodies and free vertices of 3D ones (free_corner), whose stress is
-// zero. Which particles these are is decided once, at the first build (classify).
+// zero; and the wall-free edges (wall_free_normal), where a traction-free face meets a
+// smooth wall. Which particles these are is decided once, at the first build (classify).
 #pragma once
 
 #include "engine/solver/boundary/normals.hpp"
@@ -55,6 +56,7 @@ struct FreeEdge {
       const std::uint32_t i = state.boundary.particle[b];
       state.boundary.box_corner[b] = 0;
       state.boundary.edge_axis[b] = -1;
+      state.boundary.wall_edge[b] = 0;
       if (!state.boundary.on_surface[b]) continue;
       const Sides sides = neighbour_sides(state, i);
       bool corner = Dim >= 2;
@@ -63,7 +65,53 @@ struct FreeEdge {
       const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[i])];
       if (condition.kind == BoundaryCondition<Dim>::Kind::traction)
         state.boundary.edge_axis[b] = static_cast<std::int8_t>(uniaxial_edge_axis(state, i, sides));
+      if (Dim >= 2 && condition.kind == BoundaryCondition<Dim>::Kind::symmetry)
+        for_each_wall_edge_neighbour(state, i, [&](std::uint32_t) { state.boundary.wall_edge[b] = 1; });
     }
+  }
+
+  /// Calls visit(j) for the real particles j of a traction condition one initial spacing
+  /// or less from real particle i in the initial configuration (its nearest neighbours on
+  /// a lattice): for a particle of a symmetry condition, the free face next to it
+  /// (wall_free_normal).
+  template <class Visit>
+  static void for_each_wall_edge_neighbour(const SolverState<Dim>& state, std::uint32_t i, Visit&& visit) {
+    const Vec x0 = state.initial_position_of(i);
+    const double reach = 1.01 * state.initial_spacing;
+    for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
+      if (j == i || j >= state.real.size() || state.boundary.slot[j] < 0) continue;
+      const auto& c = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
+      if (c.kind != BoundaryCondition<Dim>::Kind::traction) continue;
+      if ((state.initial_position_of(j) - x0).norm() > reach) continue;
+      visit(j);
+    }
+  }
+
+  /// A wall-free edge: particle i (slot b) of a symmetry condition (a smooth wall, outward
+  /// normal n) on the edge where a traction-free face meets the wall
+  /// (BoundaryParticles::wall_edge). Returns the free face's outward normal m there, the
+  /// sum of the current normals of the free face's particles next to it projected into
+  /// the wall's plane, normalised; zero where the particle is not on such an edge or the
+  /// face's traction is not zero at t. Both faces' conditions hold on the edge: the
+  /// wall's (u_n given, (sigma n)_t = 0) and the free face's (sigma m = 0), so that
+  /// sigma = sigma_nn n n^T + sigma_ee e e^T (e the edge's direction, n x m).
+  /// characteristics.hpp imposes the free face's part; before, nothing did, and at the
+  /// Taylor bar's rim the radial stress stayed the bulk's compression and pushed the rim
+  /// out (docs/notes/2026-12-07-wall-free-edge.md).
+  static Vec wall_free_normal(const SolverState<Dim>& state, std::size_t b, std::uint32_t i, const Vec& n, double t) {
+    if (!state.boundary.wall_edge[b]) return Vec::Zero();
+    Vec m = Vec::Zero();
+    bool loaded = false;
+    for_each_wall_edge_neighbour(state, i, [&](std::uint32_t j) {
+      const auto bj = static_cast<std::size_t>(state.boundary.slot[j]);
+      const auto& c = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
+      loaded = loaded || c.prescribed(state.initial_position_of(j), state.boundary.profile[bj], t).squaredNorm() != 0.0;
+      m += state.boundary.normal[bj];
+    });
+    if (loaded) return Vec::Zero();
+    m -= m.dot(n) * n;
+    const double norm = m.norm();
+    return norm > 1e-6 ? Vec(m / norm) : Vec::Zero();
   }
 
   /// Whether some neighbour of real particle i within the support lies below / above it
