@@ -100,24 +100,30 @@ struct CharacteristicBoundary {
     const double normal_velocity = state.boundary.velocity[b].dot(m);
     const double stress_dm = m.dot(directional<Dim>(state.boundary.stress_gradient[b], m) * m);
     const double velocity_dm = m.dot(state.boundary.velocity_gradient[b] * m);
-    // div_t (sigma m)_t = sum_{d,e} P_de d_d (sigma m)_e, P = I - m m^T (virtual set, n+1/2).
-    const Mat projector = Mat::Identity() - m * m.transpose();
-    double traction_divergence = 0.0;
-    for (int d = 0; d < Dim; ++d)
-      traction_divergence +=
-          projector.row(d).dot(directional<Dim>(state.boundary.half_stress_gradient[b], Vec::Unit(d)) * m);
     return (z_p * (plane_speed - normal_velocity) / dt - c_p * (stress_dm - z_p * velocity_dm) -
-            c_p * traction_divergence - z_p * force_m) /
+            c_p * tangential_traction_divergence(state, b, m) - z_p * force_m) /
            modulus;
   }
 
+  /// div_t (sigma m)_t = sum_{d,e} P_de d_d (sigma m)_e, P = I - m m^T, at slot b from the
+  /// virtual set at n+1/2: the traction divergence over the directions orthogonal to m
+  /// of the P characteristic along m (corner_stretch, free_face_velocity).
+  static double tangential_traction_divergence(const SolverState<Dim>& state, std::size_t b, const Vec& m) {
+    const Mat projector = Mat::Identity() - m * m.transpose();
+    double divergence = 0.0;
+    for (int d = 0; d < Dim; ++d)
+      divergence += projector.row(d).dot(directional<Dim>(state.boundary.half_stress_gradient[b], Vec::Unit(d)) * m);
+    return divergence;
+  }
+
   /// The velocity u_m at n+1 of boundary slot b along the outward normal m of a
-  /// traction-free face through it (a wall-free edge), from that face's outgoing P
-  /// characteristic (the file comment's relation along m) with t_m = 0 at n+1:
+  /// traction-free face through it (a 2D free corner's second face, a wall-free edge's free
+  /// face), from that face's outgoing P characteristic (the file comment's relation along
+  /// m) with t_m = 0 at n+1:
   ///   t_m - Z u_m = (t_m - Z u_m)^n - c_p dt d_m (t_m - Z u_m)^n
   ///                 + dt (lambda div_t v_t - c_p div_t (sigma m)_t - Z b_m),
   /// d_m at n from the real set, div_t over the directions orthogonal to m at n+1/2 from the
-  /// virtual set (as corner_stretch and the 2D free corner).
+  /// virtual set (as corner_stretch).
   static double free_face_velocity(const SolverState<Dim>& state, std::size_t b, const Vec& m, const Vec& force,
                                    double dt, double c_p, double z_p, double lame) {
     const Mat sigma0 = in_plane<Dim>(state.boundary.stress[b]);
@@ -126,12 +132,9 @@ struct CharacteristicBoundary {
     const double dm_um = m.dot(state.boundary.velocity_gradient[b] * m);
     const Mat projector = Mat::Identity() - m * m.transpose();
     const double velocity_divergence = (projector * state.boundary.half_velocity_gradient[b]).trace();
-    double traction_divergence = 0.0;
-    for (int d = 0; d < Dim; ++d)
-      traction_divergence +=
-          projector.row(d).dot(directional<Dim>(state.boundary.half_stress_gradient[b], Vec::Unit(d)) * m);
-    const double invariant = tm0 - z_p * um0 - c_p * dt * (dm_tm - z_p * dm_um) +
-                             dt * (lame * velocity_divergence - c_p * traction_divergence - z_p * force.dot(m));
+    const double invariant =
+        tm0 - z_p * um0 - c_p * dt * (dm_tm - z_p * dm_um) +
+        dt * (lame * velocity_divergence - c_p * tangential_traction_divergence(state, b, m) - z_p * force.dot(m));
     return -invariant / z_p;
   }
 
@@ -445,15 +448,7 @@ struct CharacteristicBoundary {
       Vec velocity_global = frame * velocity1;
       if (Dim == 2 && free_corner && state.boundary.full_rank_gradient[b]) {
         const Vec m = outward_plane_normal(state, i, Vec(frame.col(Dim - 1)));
-        const Mat sigma0 = in_plane<Dim>(state.boundary.stress[b]);
-        const double tm0 = m.dot(sigma0 * m), um0 = m.dot(state.boundary.velocity[b]);
-        const double dm_tm = m.dot(directional<Dim>(state.boundary.stress_gradient[b], m) * m);  // real set, n
-        const double dm_um = m.dot(state.boundary.velocity_gradient[b] * m);
-        const double dn_vn = n.dot(state.boundary.half_velocity_gradient[b] * n);  // virtual set, n+1/2
-        const double dn_snm = n.dot(directional<Dim>(state.boundary.half_stress_gradient[b], n) * m);
-        const double invariant = tm0 - z_p * um0 - c_p * dt * (dm_tm - z_p * dm_um) +
-                                 dt * (lame * dn_vn - c_p * dn_snm - z_p * force_global.dot(m));
-        velocity_global += (-invariant / z_p - m.dot(velocity_global)) * m;  // t_m = 0 at n+1
+        velocity_global += (free_face_velocity(state, b, m, force_global, dt, c_p, z_p, lame) - m.dot(velocity_global)) * m;
       }
       // The wall-free edge (above): the free face's zero shear, sigma <- P sigma P with
       // P = I - m m^T, and the velocity along m from the free face's outgoing P

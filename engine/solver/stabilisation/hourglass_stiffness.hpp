@@ -242,13 +242,8 @@ class HourglassStiffness {
                               state.real.carries_plastic_fields();
     if (follows_flow) total_residual_.resize(state.real.storage_size());
     parallel_for(real_count, [&](std::size_t i) {
-      const auto nb = hourglass_from_virtual_.neighbors(i);
-      const double* weight = return_weight_.data() + hourglass_from_virtual_.row_begin(i);
       Vec residual = Vec::Zero();
-      if (return_fit_[i].weight_sum > 0.0) {
-        residual = displacement(static_cast<std::uint32_t>(i));
-        for (std::size_t k = 0; k < nb.size(); ++k) residual -= weight[k] * virtual_value_[nb[k]];
-      }
+      if (return_fit_[i].weight_sum > 0.0) residual = displacement(static_cast<std::uint32_t>(i)) - returned_value(i);
       if (follows_flow) total_residual_[i] = residual;
       else round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * residual;
     });
@@ -339,6 +334,15 @@ class HourglassStiffness {
       values[owned + g] = mirror.reflect_direction(images.planes[g], values[images.source[g]]);
   }
 
+  /// (R a)_I = sum_v R_Iv a_v: the return trip of virtual_value_ at real particle i.
+  Vec returned_value(std::size_t i) const {
+    const auto nb = hourglass_from_virtual_.neighbors(i);
+    const double* weight = return_weight_.data() + hourglass_from_virtual_.row_begin(i);
+    Vec sum = Vec::Zero();
+    for (std::size_t k = 0; k < nb.size(); ++k) sum += weight[k] * virtual_value_[nb[k]];
+    return sum;
+  }
+
   /// SolverSettings::hourglass_reference = flow in a plastic material: the spring above
   /// acts on r_I - p_I, p_I = ParticleSet::hourglass_reference. A particle that yields in
   /// the step takes the smooth part of its residual into its reference,
@@ -373,10 +377,7 @@ class HourglassStiffness {
     auto& reference = state.real.hourglass_reference;
     parallel_for(real_count, [&](std::size_t i) {
       if (state.real.yielding[i] != 0 && return_fit_[i].weight_sum > 0.0) {
-        const auto nb = hourglass_from_virtual_.neighbors(i);
-        const double* weight = return_weight_.data() + hourglass_from_virtual_.row_begin(i);
-        Vec smooth = Vec::Zero();
-        for (std::size_t k = 0; k < nb.size(); ++k) smooth += weight[k] * virtual_value_[nb[k]];
+        const Vec smooth = returned_value(i);
         for (int d = 0; d < Dim; ++d) reference[d][i] = smooth[d];
       }
       Vec relative = total_residual_[i];
@@ -384,7 +385,6 @@ class HourglassStiffness {
       round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * relative;
     });
   }
-
 
   /// One linear least-squares fit u(X) ~ a + B (X - X_0) over a stencil (see
   /// apply): the value a = sum_J c^T p_J (w_J / w) u_J, with
