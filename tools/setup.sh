@@ -17,6 +17,7 @@ packages=(
   clang-14 libclang-rt-14-dev  # sanitizer builds: ASan/UBSan, TSan, libFuzzer (presets asan, tsan, fuzz)
   libomp-14-dev             # LLVM's OpenMP runtime and its Archer tool, which TSan understands
   valgrind                  # callgrind instruction counts: tools/check_timing.py (CI regression timing)
+  ccache                    # compiler cache: a clean clone rebuilds unchanged sources from it (CMakeLists.txt, TSPH_CCACHE)
 )
 
 missing=()
