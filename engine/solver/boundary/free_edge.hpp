@@ -167,9 +167,10 @@ struct FreeEdge {
   }
 
   /// The edge axis of free_edge_axis where the particle's normal lies between the two
-  /// faces, else -1. Both faces under the particle's condition: its normal is then the
-  /// kernel normal, between the faces (face_normal), with no component along the edge.
-  /// An edge between two conditions takes one face's normal: left as it is. Decided on
+  /// faces, else -1. Both faces under the particle's condition, or both free surfaces
+  /// (BoundaryNormals::same_free_surface): its normal is then the kernel normal, between
+  /// the faces (face_normal), with no component along the edge. An edge between two other
+  /// conditions (a loaded face and a free one) takes one face's normal: left as it is. Decided on
   /// the normal in the initial configuration (initial_normal), as free_edge_axis
   /// is: the axes are those of the initial box. The current normal turns with the body,
   /// and a cube turned 45 degrees about z had its z-edges' normals on an axis, so the edges

@@ -185,7 +185,27 @@ struct BoundaryNormals {
   /// kernel normal -sum V grad W is kept. Unlike the kernel normal, this gives the face
   /// normal at corners and next to them, where half volumes and the missing neighbours
   /// tilt the kernel sum. A particle is on the face when it carries the condition, or,
-  /// for a symmetry plane, keeps to it as a further plane (symmetry_planes.hpp).
+  /// for a symmetry plane, keeps to it as a further plane (symmetry_planes.hpp), or, in
+  /// 3D, when both its condition and `condition` are free surfaces (same_free_surface).
+  static bool free_surface(const SolverState<Dim>& state, std::int32_t condition) {
+    if (condition < 0 || static_cast<std::size_t>(condition) >= state.boundaries.size()) return false;
+    const auto& c = state.boundaries[static_cast<std::size_t>(condition)];
+    return c.kind == BoundaryCondition<Dim>::Kind::traction && c.prescribes_zero();
+  }
+
+  /// 3D: two conditions that are both free surfaces (a traction condition that is zero at
+  /// all times) are one surface for the normals, so that naming part of a free surface
+  /// apart (a column's "free end" beside its "free surface") changes nothing: a particle
+  /// on the edge where they meet takes the kernel normal between the faces and the free
+  /// edge's treatment (FreeEdge), as on an edge of one condition. Before, it took the
+  /// normal of its own condition's face and the other face's zero traction was not
+  /// imposed there: the twisting column at alpha 0.6, dx = 1/12, diverged at its free
+  /// end's edges at step 149, and ran to its end with the two conditions as one
+  /// (docs/notes/2026-12-07-split-free-surfaces.md). 2D keeps the condition's own face:
+  /// its free corner takes the second face's normal from that frame (characteristics.hpp).
+  static bool same_free_surface(const SolverState<Dim>& state, std::int32_t a, std::int32_t b) {
+    return Dim == 3 && free_surface(state, a) && free_surface(state, b);
+  }
   static Vec face_normal(const SolverState<Dim>& state, std::uint32_t i, const Vec& kernel_normal,
                          std::int32_t condition) {
     const PointsView<Dim> real_points = points_of<Dim>(state.real);
@@ -204,8 +224,10 @@ struct BoundaryNormals {
     } else {
       const bool plane = state.boundaries[static_cast<std::size_t>(condition)].kind ==
                          BoundaryCondition<Dim>::Kind::symmetry;
+      const bool merge_free = same_free_surface(state, condition, condition);
       const auto on_face = [&](std::uint32_t j) {
         if (state.real.boundary[j] == condition) return true;
+        if (merge_free && free_surface(state, state.real.boundary[j])) return true;
         const std::int32_t b = state.boundary.slot[j];
         return plane && b >= 0 && state.boundary.keeps_extra_plane(static_cast<std::size_t>(b), condition);
       };
