@@ -178,15 +178,7 @@ struct BoundaryNormals {
     return most_outward < kSurfaceCosine;
   }
 
-  /// The normal of the face of condition `condition` at particle i: the direction of
-  /// least spread of the particle and its neighbours on that face (principal
-  /// components), oriented like `kernel_normal`. Where those particles do not lie on a
-  /// (Dim-1)-plane (an edge between two faces of one condition, a lone particle) the
-  /// kernel normal -sum V grad W is kept. Unlike the kernel normal, this gives the face
-  /// normal at corners and next to them, where half volumes and the missing neighbours
-  /// tilt the kernel sum. A particle is on the face when it carries the condition, or,
-  /// for a symmetry plane, keeps to it as a further plane (symmetry_planes.hpp), or, in
-  /// 3D, when both its condition and `condition` are free surfaces (same_free_surface).
+  /// Whether `condition` is a free surface: a traction condition that is zero at all times.
   static bool free_surface(const SolverState<Dim>& state, std::int32_t condition) {
     if (condition < 0 || static_cast<std::size_t>(condition) >= state.boundaries.size()) return false;
     const auto& c = state.boundaries[static_cast<std::size_t>(condition)];
@@ -206,6 +198,16 @@ struct BoundaryNormals {
   static bool same_free_surface(const SolverState<Dim>& state, std::int32_t a, std::int32_t b) {
     return Dim == 3 && free_surface(state, a) && free_surface(state, b);
   }
+
+  /// The normal of the face of condition `condition` at particle i: the direction of
+  /// least spread of the particle and its neighbours on that face (principal
+  /// components), oriented like `kernel_normal`. Where those particles do not lie on a
+  /// (Dim-1)-plane (an edge between two faces of one condition, a lone particle) the
+  /// kernel normal -sum V grad W is kept. Unlike the kernel normal, this gives the face
+  /// normal at corners and next to them, where half volumes and the missing neighbours
+  /// tilt the kernel sum. A particle is on the face when it carries the condition, or,
+  /// for a symmetry plane, keeps to it as a further plane (symmetry_planes.hpp), or, in
+  /// 3D, when both its condition and `condition` are free surfaces (same_free_surface).
   static Vec face_normal(const SolverState<Dim>& state, std::uint32_t i, const Vec& kernel_normal,
                          std::int32_t condition) {
     const PointsView<Dim> real_points = points_of<Dim>(state.real);
@@ -224,10 +226,10 @@ struct BoundaryNormals {
     } else {
       const bool plane = state.boundaries[static_cast<std::size_t>(condition)].kind ==
                          BoundaryCondition<Dim>::Kind::symmetry;
-      const bool merge_free = same_free_surface(state, condition, condition);
+      const bool merge_free = same_free_surface(state, condition, condition);  // a free face, in 3D
       const auto on_face = [&](std::uint32_t j) {
         if (state.real.boundary[j] == condition) return true;
-        if (merge_free && free_surface(state, state.real.boundary[j])) return true;
+        if (merge_free && free_surface(state, state.real.boundary[j])) return true;  // same_free_surface
         const std::int32_t b = state.boundary.slot[j];
         return plane && b >= 0 && state.boundary.keeps_extra_plane(static_cast<std::size_t>(b), condition);
       };
