@@ -25,12 +25,12 @@ struct Motion {
   static void first_half(SolverState<Dim>& state, double dt) {
     if (state.positions_move()) {
       move_to_midpoint(state, dt);  // and begin_displacement's update
-      MirrorPlanes<Dim>::refresh(state);
+      MirrorPlanes<Dim>::refresh(state, MirrorPlanes<Dim>::Fields::evolving);  // the half step's virtual values too
       if (state.skin_distance() > 0.0 && NeighborLists<Dim>::outdated(state, dt))
         NeighborLists<Dim>::search(state);  // lists used at the midpoint
     } else {
       begin_displacement(state, dt);
-      MirrorPlanes<Dim>::refresh(state);  // the half step's virtual values; u (the hourglass stiffness)
+      MirrorPlanes<Dim>::refresh(state, MirrorPlanes<Dim>::Fields::evolving);  // the half step's virtual values; u (the hourglass stiffness)
     }
   }
 
@@ -39,7 +39,7 @@ struct Motion {
   static void second_half(SolverState<Dim>& state, double dt) {
     move(state, dt);
     MirrorPlanes<Dim>::keep_on_planes(state);
-    MirrorPlanes<Dim>::refresh(state);
+    MirrorPlanes<Dim>::refresh(state, MirrorPlanes<Dim>::Fields::motion);  // the normals read the moved ghosts
     if (state.positions_move()) NeighborLists<Dim>::update_after_move(state, dt);
   }
 
