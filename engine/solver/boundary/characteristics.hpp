@@ -117,8 +117,7 @@ struct CharacteristicBoundary {
   }
 
   /// The velocity u_m at n+1 of boundary slot b along the outward normal m of a
-  /// traction-free face through it (a 2D free corner's second face, a wall-free edge's free
-  /// face), from that face's outgoing P characteristic (the file comment's relation along
+  /// traction-free face through it (a wall-free edge's free face), from that face's outgoing P characteristic (the file comment's relation along
   /// m) with t_m = 0 at n+1:
   ///   t_m - Z u_m = (t_m - Z u_m)^n - c_p dt d_m (t_m - Z u_m)^n
   ///                 + dt (lambda div_t v_t - c_p div_t (sigma m)_t - Z b_m),
@@ -175,7 +174,14 @@ struct CharacteristicBoundary {
   static Vec condition_normal(const SolverState<Dim>& state, std::size_t b, const BoundaryCondition<Dim>& condition,
                               double dt) {
     const Vec& n = state.boundary.normal[b];
-    if (Dim == 1 || !state.positions_move() || condition.kind != BoundaryCondition<Dim>::Kind::traction) return n;
+    if (condition.kind != BoundaryCondition<Dim>::Kind::traction) return n;
+    return carried_normal(state, b, n, dt);
+  }
+
+  /// A unit normal n at slot b at time n carried to t_new by the step's deformation, as
+  /// condition_normal carries the particle's own (in small strain and 1D: n itself).
+  static Vec carried_normal(const SolverState<Dim>& state, std::size_t b, const Vec& n, double dt) {
+    if (Dim == 1 || !state.positions_move()) return n;
     Mat gradient = state.boundary.half_velocity_gradient[b];
     if (kept_partial_span(state, b)) {
       const Mat& span = state.boundary.half_span[b];
@@ -235,7 +241,25 @@ struct CharacteristicBoundary {
         if (SymmetryPlanes<Dim>::any(state, b)) SymmetryPlanes<Dim>::project_particle(state, b, i, t_new);
         continue;
       }
-      const Vec n = condition_normal(state, b, condition, dt);
+      const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
+      // A free corner (FreeEdge::free_corner; below). In 2D its frame is the bisector of
+      // its two faces' normals, from the lattice (FreeEdge::corner_face_normals) and
+      // carried over the step, whatever the faces are named. Before (2026-12-07) it was
+      // the particle's own normal: a face's where the faces are two conditions (the
+      // plate's free end), the kernel's diagonal where they are one (a free block); and
+      // at full rank the second face's P relation was imposed along the frame's tangent,
+      // which at the block's corners is the other diagonal, its sign left to round-off
+      // (docs/notes/2026-12-07-free-corners.md).
+      const bool free_corner =
+          Dim >= 2 && !velocity_given &&
+          condition.prescribed(state.initial_position_of(i), state.boundary.profile[b], t_new).squaredNorm() == 0.0 &&
+          FreeEdge<Dim>::free_corner(state, i, t_new);
+      Vec n = condition_normal(state, b, condition, dt);
+      if (Dim == 2 && free_corner) {
+        std::array<Vec, Dim> faces;
+        if (FreeEdge<Dim>::corner_face_normals(state, i, faces))
+          n = carried_normal(state, b, Vec((faces[0] + faces[1]).normalized()), dt);
+      }
       const Mat frame = normal_frame<Dim>(n);
       const double density = state.boundary.density[b];
       const double c_p = std::sqrt(modulus / density);
@@ -257,7 +281,6 @@ struct CharacteristicBoundary {
       // test StepMap.FixedFixedBarAtAlpha12DoesNotDrift). In 2D and 3D the n+1/2 rule
       // makes the clamped plate at alpha 1.2 lose energy and diverge at its clamp, so the
       // real set at n stays there (docs/notes/2026-12-06-alpha12-boundary-energy.md).
-      const bool velocity_given = condition.kind == BoundaryCondition<Dim>::Kind::velocity;
       // A symmetry plane (a smooth wall): the normal velocity given (the wall's, 0 for a
       // fixed plane), the tangential tractions zero.
       const bool symmetry = condition.kind == BoundaryCondition<Dim>::Kind::symmetry;
@@ -428,28 +451,24 @@ struct CharacteristicBoundary {
         state.real.volume[i] = state.real.mass[i] / state.real.density[i];
       }
       // A free corner (2D; FreeEdge::free_corner): both faces are traction-free, so the
-      // in-plane stress is zero (and sigma_zz with it in plane strain, elastic), and the
-      // velocity along the second face's outward normal m follows that face's outgoing P
-      // characteristic, t_m - Z u_m carried as on a face (the own frame's relations gave
-      // u_m from the S characteristic of the first face, and the corner kept the sigma_mm
-      // the first face does not constrain). Without it the oscillating plate (dx =
-      // 0.002 m, alpha 1.2) grew a symmetric mode at its free end, 0.38 % per step
-      // (docs/notes/2026-11-28-surface-depth-and-free-corners.md). Where the half-step
-      // gradient is rank-deficient (a corner at alpha 0.6) the velocity stays the own
-      // frame's: the relation's n-derivatives would read the missing direction as zero.
+      // in-plane stress is zero (and sigma_zz with it in plane strain, elastic); its
+      // velocity is its frame's, the bisector of the faces (above). Session 18 zeroed the
+      // stress (the corner had kept the sigma_mm that its first face does not constrain:
+      // the oscillating plate, dx = 0.002 m, alpha 1.2, grew a symmetric mode at its free
+      // end, 0.38 % per step; docs/notes/2026-11-28-surface-depth-and-free-corners.md)
+      // and, at full rank, imposed the second face's P relation along the frame's
+      // tangent. Measured 2026-12-07 (docs/notes/2026-12-07-free-corners.md), the
+      // rotating block at alpha 1.2, |L - L0| / L0 over three turns at 11^2 / 21^2 /
+      // 41^2: that rule 1.07e-2 / 1.38e-3 / 4.33e-4; both faces' P relations on the
+      // lattice's normals 8.0e-3 / 2.7e-3 / 1.0e-3; the bisector frame 2.4e-3 / 4.5e-4 /
+      // 2.1e-4, the plates as before.
       // A free vertex (3D, the same test: extreme along all three axes, every boundary
       // neighbour under a zero traction) has three traction-free faces, so its stress is
       // zero too; its velocity stays the own frame's. Before, the twisting column at
       // alpha 1.2 diverged from its free end's vertices (dx = 1/12 at 0.37 of its time; now
       // it reaches the end, docs/notes/2026-11-29-free-edges-in-rotation.md).
-      const bool free_corner =
-          Dim >= 2 && !velocity_given && prescribed.squaredNorm() == 0.0 && FreeEdge<Dim>::free_corner(state, i, t_new);
       if (free_corner) stress_global.setZero();
       Vec velocity_global = frame * velocity1;
-      if (Dim == 2 && free_corner && state.boundary.full_rank_gradient[b]) {
-        const Vec m = outward_plane_normal(state, i, Vec(frame.col(Dim - 1)));
-        velocity_global += (free_face_velocity(state, b, m, force_global, dt, c_p, z_p, lame) - m.dot(velocity_global)) * m;
-      }
       // The wall-free edge (above): the free face's zero shear, sigma <- P sigma P with
       // P = I - m m^T, and the velocity along m from the free face's outgoing P
       // characteristic with t_m = 0 at n+1 (as at a free corner: the own frame gave u_m from

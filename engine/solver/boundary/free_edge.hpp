@@ -114,6 +114,46 @@ struct FreeEdge {
     return norm > 1e-6 ? Vec(m / norm) : Vec::Zero();
   }
 
+  /// The current outward normals of the two faces that meet at a 2D corner of a box
+  /// (box_corner; face d starts normal to axis d): each face's direction from the chord
+  /// sum_j sign(X_j - X_i)_e (x_j - x_i) over the neighbours j that start on the face
+  /// with i (the same coordinate d; e the other axis), within the support in the initial
+  /// configuration, turned a right angle to the outside the face started on (the side no
+  /// neighbour lies on). Unlike the particle's own normal it does not depend on how the
+  /// faces are named (a corner whose faces are one condition has the kernel normal, two
+  /// conditions the normal of the face it belongs to): the free corner's frame is their
+  /// bisector (characteristics.hpp). Returns false where a face has no such neighbour
+  /// (and in 1D and 3D).
+  static bool corner_face_normals(const SolverState<Dim>& state, std::uint32_t i, std::array<Vec, Dim>& normals) {
+    if constexpr (Dim == 2) {
+      const Sides sides = neighbour_sides(state, i);
+      const auto within = BoundaryNormals<Dim>::within_at_start(state, i);
+      const Vec x0 = state.initial_position_of(i);
+      const Vec x = state.real.position_of(i);
+      const double tol = 1e-6 * state.initial_spacing;
+      for (int d = 0; d < 2; ++d) {
+        const int e = 1 - d;
+        Vec chord = Vec::Zero();
+        for (std::uint32_t j : state.lists.real_from_real.neighbors(i)) {
+          if (j == i || !within(j)) continue;
+          const Vec offset = state.initial_position_of(j) - x0;
+          if (std::abs(offset[d]) > tol || std::abs(offset[e]) <= tol) continue;
+          chord += (offset[e] > 0.0 ? 1.0 : -1.0) * (state.real.position_of(j) - x);
+        }
+        if (!(chord.norm() > 0.0)) return false;
+        const Vec t = chord.normalized();  // started as +e_e
+        // +e_e turned to +e_d: by -90 degrees for d = 0, +90 for d = 1; the outside is
+        // the side of axis d with no neighbour.
+        const Vec turned = d == 0 ? Vec(t[1], -t[0]) : Vec(-t[1], t[0]);
+        normals[static_cast<std::size_t>(d)] = sides.above[d] ? Vec(-turned) : turned;
+      }
+      return true;
+    } else {
+      (void)state, (void)i, (void)normals;
+      return false;
+    }
+  }
+
   /// Whether some neighbour of real particle i within the support lies below / above it
   /// along each axis, all in the initial configuration.
   struct Sides {
