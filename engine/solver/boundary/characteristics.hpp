@@ -117,8 +117,8 @@ struct CharacteristicBoundary {
   }
 
   /// The velocity u_m at n+1 of boundary slot b along the outward normal m of a
-  /// traction-free face through it (a wall-free edge's free face), from that face's outgoing P characteristic (the file comment's relation along
-  /// m) with t_m = 0 at n+1:
+  /// traction-free face through it (a wall-free edge's free face), from that face's
+  /// outgoing P characteristic (the file comment's relation along m) with t_m = 0 at n+1:
   ///   t_m - Z u_m = (t_m - Z u_m)^n - c_p dt d_m (t_m - Z u_m)^n
   ///                 + dt (lambda div_t v_t - c_p div_t (sigma m)_t - Z b_m),
   /// d_m at n from the real set, div_t over the directions orthogonal to m at n+1/2 from the
