@@ -16,6 +16,7 @@
 
 #include "engine/parallel.hpp"
 #include "engine/solver/state.hpp"
+#include "kernels/simd.hpp"
 
 #include <Eigen/Eigenvalues>
 
@@ -48,6 +49,77 @@ struct StableTimeStep {
 
   /// The limit over every virtual particle with a full-rank row (a row whose initial
   /// offsets span fewer than Dim directions is skipped).
+  /// The sums of one virtual row over its real neighbours within the support in the
+  /// initial configuration: their count, sum X, sum x, sum x X^T and sum X X^T (X, x the
+  /// initial and current offsets from the origins given).
+  struct RowMoments {
+    double count = 0.0;
+    Vec reference_sum = Vec::Zero(), current_sum = Vec::Zero();
+    Mat current = Mat::Zero(), reference = Mat::Zero();
+  };
+
+  /// The body of row_moments, compiled once per instruction set (kernels/simd.hpp):
+  /// kLanes neighbours at a time, a neighbour beyond the support (and a padding lane)
+  /// weighted 0. Before (2026-12-07) a scalar loop: 9.7 % of the quarter Taylor bar's
+  /// instructions (R0 / 4).
+  [[gnu::always_inline]] static RowMoments row_moments_in_packs(const ParticleSet<Dim>& real,
+                                                                std::span<const std::uint32_t> row,
+                                                                const Vec& reference_origin, const Vec& current_origin,
+                                                                double support_squared) {
+    constexpr int pairs = Dim * (Dim + 1) / 2;
+    constexpr int reference_sum_at = 1, current_sum_at = 1 + Dim, current_at = 1 + 2 * Dim,
+                  reference_at = 1 + 2 * Dim + Dim * Dim;
+    std::array<Pack, 1 + 2 * Dim + Dim * Dim + pairs> sum{};
+    const std::size_t n = row.size();
+    const std::size_t padded = padded_size(n);
+    const Pack one = broadcast(1.0);
+    for (std::size_t k = 0; k < padded; k += kLanes) {
+      std::array<std::uint32_t, kLanes> j;
+      for (std::size_t l = 0; l < kLanes; ++l) j[l] = k + l < n ? row[k + l] : row[0];
+      std::array<Pack, Dim> reference_offset, current_offset;
+      Pack r2{};
+      for (int d = 0; d < Dim; ++d) {
+        reference_offset[d] = load_indexed_pack(real.initial_position[d].data(), j) - reference_origin[d];
+        current_offset[d] = load_indexed_pack(real.position[d].data(), j) - current_origin[d];
+        r2 += reference_offset[d] * reference_offset[d];
+      }
+      Pack weight = select(r2 <= broadcast(support_squared), one, Pack{});
+      for (std::size_t l = n > k ? n - k : 0; l < kLanes; ++l) weight[l] = 0.0;
+      sum[0] += weight;
+      std::array<Pack, Dim> weighted_reference;
+      for (int d = 0; d < Dim; ++d) {
+        weighted_reference[d] = weight * reference_offset[d];
+        sum[reference_sum_at + d] += weighted_reference[d];
+        sum[current_sum_at + d] += weight * current_offset[d];
+      }
+      int ab = 0;
+      for (int a = 0; a < Dim; ++a) {
+        for (int b = 0; b < Dim; ++b) sum[current_at + a * Dim + b] += current_offset[a] * weighted_reference[b];
+        for (int b = a; b < Dim; ++b, ++ab) sum[reference_at + ab] += weighted_reference[a] * reference_offset[b];
+      }
+    }
+    const auto total = lane_sums(sum);
+    RowMoments moments;
+    moments.count = total[0];
+    int ab = 0;
+    for (int a = 0; a < Dim; ++a) {
+      moments.reference_sum[a] = total[reference_sum_at + a];
+      moments.current_sum[a] = total[current_sum_at + a];
+      for (int b = 0; b < Dim; ++b) moments.current(a, b) = total[current_at + a * Dim + b];
+      for (int b = a; b < Dim; ++b, ++ab) moments.reference(a, b) = moments.reference(b, a) = total[reference_at + ab];
+    }
+    return moments;
+  }
+  static RowMoments row_moments_sse2(const ParticleSet<Dim>& real, std::span<const std::uint32_t> row,
+                                     const Vec& reference_origin, const Vec& current_origin, double support_squared) {
+    return row_moments_in_packs(real, row, reference_origin, current_origin, support_squared);
+  }
+  TSPH_TARGET_AVX2 static RowMoments row_moments_avx2(const ParticleSet<Dim>& real, std::span<const std::uint32_t> row,
+                                                      const Vec& reference_origin, const Vec& current_origin,
+                                                      double support_squared) {
+    return row_moments_in_packs(real, row, reference_origin, current_origin, support_squared);
+  }
+
   static Limit compute(const SolverState<Dim>& state) {
     const auto& elastic = state.material.elastic();
     const double modulus = elastic.p_wave_modulus(), density0 = elastic.reference_density();
@@ -66,22 +138,12 @@ struct StableTimeStep {
             reference_origin[d] = virt.initial_position[d][q];
             current_origin[d] = real.position[d][row[0]];
           }
-          Vec reference_mean = Vec::Zero(), current_mean = Vec::Zero();
-          Mat current = Mat::Zero(), reference = Mat::Zero();  // sum x X^T, sum X X^T, then centred
-          double count = 0.0;
-          for (const std::uint32_t j : row) {
-            Vec x, X;
-            for (int d = 0; d < Dim; ++d) {
-              x[d] = real.position[d][j] - current_origin[d];
-              X[d] = real.initial_position[d][j] - reference_origin[d];
-            }
-            if (X.squaredNorm() > support * support) continue;
-            reference_mean += X;
-            current_mean += x;
-            current.noalias() += x * X.transpose();
-            reference.noalias() += X * X.transpose();
-            count += 1.0;
-          }
+          const RowMoments sums = simd_path() == SimdPath::avx2
+                                      ? row_moments_avx2(real, row, reference_origin, current_origin, support * support)
+                                      : row_moments_sse2(real, row, reference_origin, current_origin, support * support);
+          const double count = sums.count;
+          Vec reference_mean = sums.reference_sum, current_mean = sums.current_sum;
+          Mat current = sums.current, reference = sums.reference;
           if (count < Dim + 1) return;
           reference_mean /= count;
           current_mean /= count;

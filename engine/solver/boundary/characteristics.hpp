@@ -63,16 +63,12 @@ struct CharacteristicBoundary {
                                      source_points, source.volume, nb,
                                      InterpolationKind::shepard, w, simd_path(),
                                      state.reference_kernel() ? &row_reference : nullptr);
-      Mat grad_v = Mat::Zero();
-      for (std::size_t k = 0; k < nb.size(); ++k)
-        for (int d = 0; d < Dim; ++d)
-          grad_v.row(d) += (source.velocity[d][nb[k]] - source.velocity[d][i]) *
-                           w.gradient_of(k).transpose();
       state.boundary.stress[b] = state.stress_of(state.real, i);
       state.boundary.velocity[b] = state.velocity_of(i);
       state.boundary.density[b] = state.real.density[i];
-      state.boundary.velocity_gradient[b] = grad_v;
-      state.boundary.stress_gradient[b] = StencilEvaluation<Dim>::stress_gradient(source, nb, w, state.boundary.stress[b]);
+      StencilEvaluation<Dim>::velocity_and_stress_gradients(source, nb, w, state.boundary.velocity[b],
+                                                            state.boundary.stress[b], state.boundary.velocity_gradient[b],
+                                                            state.boundary.stress_gradient[b]);
     }
     counts.interpolation = 0;  // the Shepard weights are not used here
     state.add(counts);
