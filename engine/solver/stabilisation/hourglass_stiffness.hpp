@@ -171,6 +171,10 @@ class HourglassStiffness {
       forward_renumberings_ = state.counters.renumberings;
       forward_h_ = h;
     }
+    // Without a skin (the reference kernel, the default of updated Lagrangian; small
+    // strain) every pair of the lists lies within the support at every step: between
+    // builds a row's entries are the row itself and nothing is checked per pair.
+    const bool every_pair_within = state.skin_distance() == 0.0;
     parallel_for(virtual_count, [&](std::size_t v) {
       const auto nb = forward_list.neighbors(v);
       const auto vi = static_cast<std::uint32_t>(v);
@@ -179,11 +183,15 @@ class HourglassStiffness {
       double* weight = support_weights_.data() + support_begin_[v];
       bool same = forward_kept;
       std::uint32_t count = 0;
-      for (std::size_t k = 0; k < nb.size(); ++k) {
-        const char now = state.within_support(virtual_points, v, real_points, nb[k]) ? 1 : 0;
-        same = same && now == kept_support[k];
-        kept_support[k] = now;
-        if (now) entries[count++] = nb[k];
+      if (every_pair_within && forward_kept) {
+        count = static_cast<std::uint32_t>(nb.size());
+      } else {
+        for (std::size_t k = 0; k < nb.size(); ++k) {
+          const char now = state.within_support(virtual_points, v, real_points, nb[k]) ? 1 : 0;
+          same = same && now == kept_support[k];
+          kept_support[k] = now;
+          if (now) entries[count++] = nb[k];
+        }
       }
       if (!same) {
         support_count_[v] = count;
@@ -290,9 +298,9 @@ class HourglassStiffness {
       std::uint64_t* version = backward_version_.data() + backward_list.row_begin(j);
       for (std::size_t k = 0; k < nb.size(); ++k) {
         const std::uint32_t v = nb[k];
-        if (!(forward_fit_[v].weight_sum > 0.0 && state.within_support(real_points, j, virtual_points, v))) continue;
-        if (version[k] != forward_version_[v]) {
-          weight[k] = coefficient(forward_fit_[v], offset(rj, v), h);
+        if (!every_pair_within && !state.within_support(real_points, j, virtual_points, v)) continue;
+        if (version[k] != forward_version_[v]) {  // a row without a fit weighs 0
+          weight[k] = forward_fit_[v].weight_sum > 0.0 ? coefficient(forward_fit_[v], offset(rj, v), h) : 0.0;
           version[k] = forward_version_[v];
         }
         force -= weight[k] * virtual_value_[v];
