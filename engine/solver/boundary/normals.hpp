@@ -4,6 +4,7 @@
 #pragma once
 
 #include "engine/solver/state.hpp"
+#include "kernels/simd.hpp"
 #include "kernels/smoothing_kernels.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -73,9 +74,7 @@ struct BoundaryNormals {
       if (first_build) state.boundary.on_surface.assign(state.boundary.particle.size(), 1);
       for (std::size_t b = 0; b < state.boundary.particle.size(); ++b) {
         const std::uint32_t i = state.boundary.particle[b];
-        const Vec sum = kernel_gradient_sum(
-            state, kernel, real_points, i, [&](std::uint32_t j) { return state.real.volume[j]; },
-            [&](std::uint32_t j) { return state.within_support(real_points, i, real_points, j); });
+        const Vec sum = current_kernel_gradient_sum(state, kernel, real_points, i);
         const double norm = sum.norm();
         const Vec kernel_normal = norm > 0.0 ? Vec(-sum / norm) : Vec(Vec::Unit(0));
         if (first_build) {
@@ -121,6 +120,62 @@ struct BoundaryNormals {
       }
     });
     state.lists.surface_decided = true;
+  }
+
+  /// sum_J V_J grad_I W_IJ over i's real row at the current positions, with the real
+  /// set's volumes (the kernel normal's sum, every step): kernel_gradient_sum over the
+  /// row, kLanes pairs at a time with the kernel's branch-free slope (kernels/simd.hpp).
+  /// A pair beyond the support (a list with a skin) has a zero gradient, so no pair is
+  /// left out. Before (2026-12-07) a scalar loop with a support test per pair: 5.5 % of
+  /// the twisting column's instructions.
+  template <class Kernel>
+  [[gnu::always_inline]] static Vec current_kernel_gradient_sum_in_packs(const PointsView<Dim>& points,
+                                                                         const double* volume, std::uint32_t i,
+                                                                         std::span<const std::uint32_t> row, double h) {
+    const std::size_t n = row.size();
+    const std::size_t padded = padded_size(n);
+    const double inverse_h = 1.0 / h;
+    const double slope_factor = Kernel::slope_factor(h);
+    std::array<Pack, Dim> sum{};
+    for (std::size_t k = 0; k < padded; k += kLanes) {
+      std::array<std::uint32_t, kLanes> j;
+      for (std::size_t l = 0; l < kLanes; ++l) j[l] = k + l < n ? row[k + l] : row[0];
+      Pack weight = load_indexed_pack(volume, j);
+      for (std::size_t l = n > k ? n - k : 0; l < kLanes; ++l) weight[l] = 0.0;
+      std::array<Pack, Dim> offset;  // x_I - x_J
+      Pack r2{};
+      for (int d = 0; d < Dim; ++d) {
+        offset[d] = points.coordinate[d][i] - load_indexed_pack(points.coordinate[d], j);
+        r2 += offset[d] * offset[d];
+      }
+      const Pack q = square_root(r2) * inverse_h;
+      const Pack s = weight * (slope_factor * Kernel::slope_over_q(q));
+      for (int d = 0; d < Dim; ++d) sum[d] += s * offset[d];
+    }
+    const auto total = lane_sums(sum);
+    Vec result;
+    for (int d = 0; d < Dim; ++d) result[d] = total[d];
+    return result;
+  }
+  template <class Kernel>
+  static Vec current_kernel_gradient_sum_sse2(const PointsView<Dim>& points, const double* volume, std::uint32_t i,
+                                              std::span<const std::uint32_t> row, double h) {
+    return current_kernel_gradient_sum_in_packs<Kernel>(points, volume, i, row, h);
+  }
+  template <class Kernel>
+  TSPH_TARGET_AVX2 static Vec current_kernel_gradient_sum_avx2(const PointsView<Dim>& points, const double* volume,
+                                                               std::uint32_t i, std::span<const std::uint32_t> row,
+                                                               double h) {
+    return current_kernel_gradient_sum_in_packs<Kernel>(points, volume, i, row, h);
+  }
+  template <class Kernel>
+  static Vec current_kernel_gradient_sum(const SolverState<Dim>& state, const Kernel&, const PointsView<Dim>& points,
+                                         std::uint32_t i) {
+    const auto row = state.lists.real_from_real.neighbors(i);
+    const double h = state.settings.smoothing_length;
+    if (simd_path() == SimdPath::avx2)
+      return current_kernel_gradient_sum_avx2<Kernel>(points, state.real.volume.data(), i, row, h);
+    return current_kernel_gradient_sum_sse2<Kernel>(points, state.real.volume.data(), i, row, h);
   }
 
   /// sum_J V_J grad_I W_IJ over the pairs (i, j) of i's real row that `keep` accepts, at
