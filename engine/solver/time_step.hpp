@@ -47,8 +47,6 @@ struct StableTimeStep {
   };
   struct NoScratch {};
 
-  /// The limit over every virtual particle with a full-rank row (a row whose initial
-  /// offsets span fewer than Dim directions is skipped).
   /// The sums of one virtual row over its real neighbours within the support in the
   /// initial configuration: their count, sum X, sum x, sum x X^T and sum X X^T (X, x the
   /// initial and current offsets from the origins given).
@@ -120,6 +118,8 @@ struct StableTimeStep {
     return row_moments_in_packs(real, row, reference_origin, current_origin, support_squared);
   }
 
+  /// The limit over every virtual particle with a full-rank row (a row whose initial
+  /// offsets span fewer than Dim directions is skipped).
   static Limit compute(const SolverState<Dim>& state) {
     const auto& elastic = state.material.elastic();
     const double modulus = elastic.p_wave_modulus(), density0 = elastic.reference_density();
