@@ -294,7 +294,16 @@ template <int Dim, class Kernel, bool Reference = false>
   // [0] kernel sum, [1, 1 + Dim) first moments, then the upper triangles of the second
   // moments and of the correction matrix.
   constexpr int first_at = 1, second_at = 1 + Dim, correction_at = 1 + Dim + pairs;
-  std::array<Pack, 1 + Dim + pairs + correction_entries> sum{};
+  constexpr int sum_count = 1 + Dim + pairs + correction_entries;
+  // In 3D the 16 (19 with Reference) partial sums do not fit in the 16 vector registers
+  // with the pass's other values: accumulated in the pass they live on the stack, a load
+  // and a store per sum and pack. There the pass stores the row's values, gradients and
+  // offsets only, and two sweeps over them (in L1) sum the moments (10 sums) and the
+  // correction matrix (9 or 6), each in registers; the same products in the same order
+  // per lane (bench/RESULTS.md, "Moment sums in registers").
+  constexpr bool split_sums = Dim == 3;
+  std::array<Pack, split_sums ? 0 : sum_count> sum{};
+  std::array<double, sum_count> total;
   for (std::size_t k = 0; k < padded; k += kLanes) {
     std::array<std::uint32_t, kLanes> j;
     Pack volume;
@@ -323,20 +332,53 @@ template <int Dim, class Kernel, bool Reference = false>
     const Pack s = volume * (-slope_factor * Kernel::slope_over_q(q));
     store_pack(value + k, w);
     for (int d = 0; d < Dim; ++d) store_pack(gradient[d] + k, s * kernel_offset[d]);
-    sum[0] += w;
-    int ab = 0;
-    for (int a = 0; a < Dim; ++a) {
-      sum[first_at + a] += w * o[a];
-      for (int b = a; b < Dim; ++b, ++ab) {
-        const Pack p = o[a] * o[b];
-        sum[second_at + ab] += w * p;
-        if constexpr (!Reference) sum[correction_at + ab] += s * p;
+    if constexpr (!split_sums) {
+      sum[0] += w;
+      int ab = 0;
+      for (int a = 0; a < Dim; ++a) {
+        sum[first_at + a] += w * o[a];
+        for (int b = a; b < Dim; ++b, ++ab) {
+          const Pack p = o[a] * o[b];
+          sum[second_at + ab] += w * p;
+          if constexpr (!Reference) sum[correction_at + ab] += s * p;
+        }
+        if constexpr (Reference)  // M_ab = sum_J s_J O_a o_b (O: reference, o: current offset)
+          for (int b = 0; b < Dim; ++b) sum[correction_at + a * Dim + b] += (s * kernel_offset[a]) * o[b];
       }
-      if constexpr (Reference)  // M_ab = sum_J s_J O_a o_b (O: reference, o: current offset)
-        for (int b = 0; b < Dim; ++b) sum[correction_at + a * Dim + b] += (s * kernel_offset[a]) * o[b];
     }
   }
-  const auto total = lane_sums(sum);
+  if constexpr (split_sums) {
+    std::array<Pack, 1 + Dim + pairs> moment_sum{};
+    for (std::size_t k = 0; k < padded; k += kLanes) {
+      const Pack w = load_pack(value + k);
+      std::array<Pack, Dim> o;
+      for (int d = 0; d < Dim; ++d) o[d] = load_pack(offset[d] + k);
+      moment_sum[0] += w;
+      int ab = 0;
+      for (int a = 0; a < Dim; ++a) {
+        moment_sum[first_at + a] += w * o[a];
+        for (int b = a; b < Dim; ++b, ++ab) moment_sum[second_at + ab] += w * (o[a] * o[b]);
+      }
+    }
+    std::array<Pack, correction_entries> correction_sum{};
+    for (std::size_t k = 0; k < padded; k += kLanes) {
+      std::array<Pack, Dim> g, o;
+      for (int d = 0; d < Dim; ++d) g[d] = load_pack(gradient[d] + k), o[d] = load_pack(offset[d] + k);
+      int ab = 0;
+      for (int a = 0; a < Dim; ++a) {
+        if constexpr (Reference)  // M_ab = sum_J (s_J O_a) o_b, as in the pass above
+          for (int b = 0; b < Dim; ++b) correction_sum[a * Dim + b] += g[a] * o[b];
+        else  // C_ab = sum_J (s_J o_a) o_b, a <= b
+          for (int b = a; b < Dim; ++b, ++ab) correction_sum[ab] += g[a] * o[b];
+      }
+    }
+    const auto moments_total = lane_sums(moment_sum);
+    const auto correction_total = lane_sums(correction_sum);
+    std::copy(moments_total.begin(), moments_total.end(), total.begin());
+    std::copy(correction_total.begin(), correction_total.end(), total.begin() + correction_at);
+  } else {
+    total = lane_sums(sum);
+  }
   Moments moments;  // [1; d] [1; d]^T weighted by V_J W_IJ, d = o / h
   Mat correction_matrix;
   moments(0, 0) = total[0];
