@@ -245,7 +245,9 @@ void TaylorSph<Dim>::check_stability(double dt) {
 
 template <int Dim>
 void TaylorSph<Dim>::advance_positions(double dt) {
-  MirrorPlanes<Dim>::attach(state_);  // after advance_fields: refreshed (the real set's new state)
+  // After advance_fields: the real set's new state refreshed (the virtual set is as the
+  // first half of the motion left it; the second half refreshes its positions).
+  MirrorPlanes<Dim>::attach(state_, /*virtual_changed=*/false);
   Motion<Dim>::second_half(state_, dt);
   MirrorPlanes<Dim>::detach(state_);
 }

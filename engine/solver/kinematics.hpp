@@ -25,12 +25,14 @@ struct Motion {
   static void first_half(SolverState<Dim>& state, double dt) {
     if (state.positions_move()) {
       move_to_midpoint(state, dt);  // and begin_displacement's update
-      MirrorPlanes<Dim>::refresh(state, MirrorPlanes<Dim>::Fields::evolving);  // the half step's virtual values too
+      // The half step's virtual values; the real set only moved (the half step reads it).
+      MirrorPlanes<Dim>::refresh(state, MirrorPlanes<Dim>::Fields::motion, MirrorPlanes<Dim>::Fields::evolving);
       if (state.skin_distance() > 0.0 && NeighborLists<Dim>::outdated(state, dt))
         NeighborLists<Dim>::search(state);  // lists used at the midpoint
     } else {
       begin_displacement(state, dt);
-      MirrorPlanes<Dim>::refresh(state, MirrorPlanes<Dim>::Fields::evolving);  // the half step's virtual values; u (the hourglass stiffness)
+      // The half step's virtual values; the real set's u (the hourglass stiffness).
+      MirrorPlanes<Dim>::refresh(state, MirrorPlanes<Dim>::Fields::motion, MirrorPlanes<Dim>::Fields::evolving);
     }
   }
 

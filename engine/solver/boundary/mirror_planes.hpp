@@ -149,19 +149,20 @@ struct MirrorPlanes {
 
   /// Attaches the ghosts of the last generate to both sets and fills them (the
   /// boundary slots' per-particle index grows with them: a ghost has no slot).
-  /// Already attached (advance_positions after advance_fields): refreshed only.
-  static void attach(SolverState<Dim>& state) {
+  /// Already attached (advance_positions after advance_fields): refreshed only, the
+  /// virtual ghosts only if `virtual_changed`.
+  static void attach(SolverState<Dim>& state, bool virtual_changed = true) {
     if (!state.mirror.active()) return;
-    Fields fields = Fields::evolving;
     if (state.real.ghost_count() != state.mirror.real.source.size() ||
         state.virtual_.ghost_count() != state.mirror.virtual_.source.size()) {
       state.real.attach_ghosts(state.mirror.real.source.size());
       state.virtual_.attach_ghosts(state.mirror.virtual_.source.size());
       state.boundary.slot.resize(state.real.size());
       state.boundary.slot.resize(state.real.storage_size(), -1);
-      fields = Fields::all;
+      refresh(state, Fields::all);
+      return;
     }
-    refresh(state, fields);
+    refresh(state, Fields::evolving, virtual_changed ? Fields::evolving : Fields::none);
   }
 
   /// Drops the ghosts (between steps the sets hold their own particles only).
@@ -177,17 +178,20 @@ struct MirrorPlanes {
     all,       ///< every carried field: ghost slots just attached (their values unset)
     evolving,  ///< all but the ones no stage changes (mass, initial position, id, boundary, group)
     motion,    ///< position and displacement: after a move (Motion), which writes nothing else
+    none,      ///< nothing: no stage wrote the set since the last refresh
   };
 
   /// Copies each ghost's owned particle into it, reflected (see the file comment): the
   /// `fields` that changed since the ghosts were last filled. Before (2026-12-07), every
   /// refresh copied every field, four times a step: with the stress reflected as R s R
   /// per plane it was 18 % of the quarter Taylor bar's time at R0 / 4 (perf).
-  static void refresh(SolverState<Dim>& state, Fields fields) {
+  /// With two arguments, the fields of each set (the real ones, the virtual ones).
+  static void refresh(SolverState<Dim>& state, Fields fields) { refresh(state, fields, fields); }
+  static void refresh(SolverState<Dim>& state, Fields real_fields, Fields virtual_fields) {
     if (!state.mirror.active()) return;
     const std::vector<StressMap> maps = stress_maps(state.mirror);
-    refresh_set(state.mirror, maps, state.real, state.mirror.real, fields);
-    refresh_set(state.mirror, maps, state.virtual_, state.mirror.virtual_, fields);
+    refresh_set(state.mirror, maps, state.real, state.mirror.real, real_fields);
+    refresh_set(state.mirror, maps, state.virtual_, state.mirror.virtual_, virtual_fields);
   }
 
   /// The owned real particles on a plane keep to it: v . m = 0, no shear traction on
@@ -276,7 +280,7 @@ struct MirrorPlanes {
   static void refresh_set(const MirrorGhosts<Dim>& mirror, const std::vector<StressMap>& maps, ParticleSet<Dim>& set,
                           const typename MirrorGhosts<Dim>::Images& images, Fields fields) {
     const std::size_t owned = set.size(), ghosts = images.source.size();
-    if (ghosts == 0) return;
+    if (ghosts == 0 || fields == Fields::none) return;
     parallel_blocks(ghosts, [&](std::size_t, std::size_t begin, std::size_t end) {
       auto copy = [&](auto& field) {
         if (field.empty()) return;
