@@ -106,7 +106,10 @@ class HourglassStiffness {
     const std::size_t owned_real = state.real.size();
     const double ahead =
         state.settings.hourglass_kick == SolverSettings<Dim>::HourglassKick::predicted ? 0.5 * dt : 0.0;
-    auto displacement = [&](std::uint32_t j) {
+    // Once per particle (ghosts included) into one array, read by the fits' rows as one
+    // Vec per pair instead of six gathered fields and a ghost test.
+    ahead_displacement_.resize(state.real.storage_size());
+    parallel_for(state.real.storage_size(), [&](std::size_t j) {
       Vec v = state.velocity_of(j);
       if (j >= owned_real) {
         const std::size_t g = j - owned_real;
@@ -114,8 +117,9 @@ class HourglassStiffness {
       }
       Vec u;
       for (int d = 0; d < Dim; ++d) u[d] = state.real.displacement[d][j] + ahead * v[d];
-      return u;
-    };
+      ahead_displacement_[j] = u;
+    });
+    const Vec* const displacement = ahead_displacement_.data();
     // The half-step lists with a skin also hold pairs beyond 2h at the current positions
     // (within_support): the fit and the force skip them (their weights come from the
     // initial coordinates, so they would not vanish).
@@ -209,7 +213,7 @@ class HourglassStiffness {
       }
       Vec value = Vec::Zero();
       if (forward_fit_[v].weight_sum > 0.0)
-        for (std::uint32_t m = 0; m < count; ++m) value += weight[m] * displacement(entries[m]);
+        for (std::uint32_t m = 0; m < count; ++m) value += weight[m] * displacement[entries[m]];
       virtual_value_[v] = value;
     });
     if (mirror.active()) {
@@ -251,7 +255,7 @@ class HourglassStiffness {
     if (follows_flow) total_residual_.resize(state.real.storage_size());
     parallel_for(real_count, [&](std::size_t i) {
       Vec residual = Vec::Zero();
-      if (return_fit_[i].weight_sum > 0.0) residual = displacement(static_cast<std::uint32_t>(i)) - returned_value(i);
+      if (return_fit_[i].weight_sum > 0.0) residual = displacement[i] - returned_value(i);
       if (follows_flow) total_residual_[i] = residual;
       else round_trip_residual_[i] = (state.real.mass[i] / state.real.density[i]) * residual;
     });
@@ -261,13 +265,13 @@ class HourglassStiffness {
       state.energy.hourglass_energy = 0.5 * stiffness * deterministic_sum(real_count, [&](std::size_t i) {
         return state.share(i) * round_trip_residual_[i].squaredNorm() * state.real.density[i] / state.real.mass[i];
       });
-    // s_v = sum_I R_Iv V_I r_I (the transposed return trip; reuses virtual_value_).
+    // s_v = sum_I R_Iv V_I r_I (the transposed return trip; reuses virtual_value_). A
+    // real particle without a return fit has R_Iv = 0 (and r_I = 0): no test per pair.
     parallel_for(virtual_count, [&](std::size_t v) {
       const auto nb = hourglass_to_real_.neighbors(v);
       const double* weight = transposed_return_weight_.data() + hourglass_to_real_.row_begin(v);
       Vec sum = Vec::Zero();
-      for (std::size_t k = 0; k < nb.size(); ++k)
-        if (return_fit_[nb[k]].weight_sum > 0.0) sum += weight[k] * round_trip_residual_[nb[k]];
+      for (std::size_t k = 0; k < nb.size(); ++k) sum += weight[k] * round_trip_residual_[nb[k]];
       virtual_value_[v] = sum;
     });
     if (mirror.active()) mirror_directions(mirror, virtual_value_, mirror.virtual_, virtual_count);
@@ -282,7 +286,11 @@ class HourglassStiffness {
       backward_weight_.assign(backward_list.pair_count(), 0.0);
       backward_version_.assign(backward_list.pair_count(), 0);
       backward_build_ = state.counters.neighbor_builds;
+      backward_current_ = false;
     }
+    // Every pair within the support and no row of A fitted again since the last pass
+    // (forward_kept): every weight along the list is that pass's, no version is read.
+    const bool backward_current = backward_current_ && every_pair_within && forward_kept;
     parallel_for(real_count, [&](std::size_t j) {
       if (const std::int32_t b = state.boundary.slot[j]; b >= 0) {
         const auto& condition = state.boundaries[static_cast<std::size_t>(state.real.boundary[j])];
@@ -299,7 +307,7 @@ class HourglassStiffness {
       for (std::size_t k = 0; k < nb.size(); ++k) {
         const std::uint32_t v = nb[k];
         if (!every_pair_within && !state.within_support(real_points, j, virtual_points, v)) continue;
-        if (version[k] != forward_version_[v]) {  // a row without a fit weighs 0
+        if (!backward_current && version[k] != forward_version_[v]) {  // a row without a fit weighs 0
           weight[k] = forward_fit_[v].weight_sum > 0.0 ? coefficient(forward_fit_[v], offset(rj, v), h) : 0.0;
           version[k] = forward_version_[v];
         }
@@ -320,6 +328,7 @@ class HourglassStiffness {
       }
       if (ledger) kick_[j] = kick;
     });
+    backward_current_ = every_pair_within;  // each weight read above is current
   }
 
   /// The radius of the return trip's lists: max(2h, 1.75 dx), dx the initial spacing
@@ -453,6 +462,8 @@ class HourglassStiffness {
   std::vector<double> backward_weight_;         ///< A_vJ along state.lists.real_from_virtual
   std::vector<std::uint64_t> backward_version_; ///< forward_version_ of the fit each weight came from (0: none)
   std::int64_t backward_build_ = -1;            ///< SolverCounters::neighbor_builds of the two above
+  bool backward_current_ = false;               ///< the last pass brought every weight it reads up to date
+  std::vector<Vec> ahead_displacement_;         ///< u* = u^n + dt/2 (v^n + v*) per real particle, ghosts included
   std::vector<LinearFitWeights> return_fit_;   ///< R, per real particle (per list build)
   std::vector<double> return_weight_;             ///< R_Iv along hourglass_from_virtual_ (per list build)
   std::vector<double> transposed_return_weight_;  ///< R_Iv along hourglass_to_real_ (per list build)
