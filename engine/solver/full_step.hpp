@@ -138,14 +138,13 @@ struct FullStep {
                 status.gradient_fallback || status.interpolation_fallback ? 0 : 1;
             if (deficient == Deficient::complete) state.boundary.half_span[static_cast<std::size_t>(b)] = Mat::Identity();
             state.boundary.half_velocity[static_cast<std::size_t>(b)] = s.velocity;
-            Vec gradient_sum = Vec::Zero();  // sum_J V_J Gn_IJ: the gradient of a jump at I
             // The row's normal moment (surface_extrapolation only): sum_k G_k (x) r_k (r_k . n),
             // over every weight (a skin pair beyond 2h has a zero one).
             const bool extrapolate = state.settings.surface_extrapolation == Toggle::on;
             const Vec& normal = state.boundary.normal[static_cast<std::size_t>(b)];
             // Plain scalar sums (the Eigen temporaries of the former loop went through the
             // stack with a store-forwarding stall per pair: 4 % of the twisting column).
-            std::array<double, Dim> g_sum{};
+            std::array<double, Dim> g_sum{};  // sum_J V_J Gn_IJ: the gradient of a jump at I
             std::array<double, Dim * Dim> moment{};
             std::array<double, Dim> x_r;
             for (int d = 0; d < Dim; ++d) x_r[d] = target.position[d][r];
@@ -164,13 +163,12 @@ struct FullStep {
                 for (int c = 0; c < Dim; ++c) moment[a * Dim + c] += ga * offset[c];
               }
             }
-            Mat normal_moment;
+            Vec& gradient_sum = state.boundary.gradient_sum[static_cast<std::size_t>(b)];
+            Mat& normal_moment = state.boundary.normal_moment[static_cast<std::size_t>(b)];
             for (int d = 0; d < Dim; ++d) {
               gradient_sum[d] = g_sum[d];
               for (int c = 0; c < Dim; ++c) normal_moment(d, c) = moment[d * Dim + c];
             }
-            state.boundary.gradient_sum[static_cast<std::size_t>(b)] = gradient_sum;
-            state.boundary.normal_moment[static_cast<std::size_t>(b)] = normal_moment;
             state.boundary.half_stress_gradient[static_cast<std::size_t>(b)] =
                 Eval::stress_gradient(source, nb, w, s.stress);
           }
