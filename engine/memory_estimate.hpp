@@ -43,7 +43,9 @@
 //     stored positions); the cell list is released before the second list is
 //     transposed from the first;
 //   * a plastic material's internal variables (plastic_field_bytes) and the volumetric
-//     average's stencils and rates (volumetric_average_bytes).
+//     average's stencils and rates (volumetric_average_bytes);
+//   * with the reference kernel, its factor cache up to SolverSettings::kernel_cache_bytes
+//     (kernel_factor_bytes_per_particle; a total, added by the caller).
 #pragma once
 
 #include "engine/particle_set.hpp"
@@ -110,6 +112,20 @@ constexpr double plastic_field_bytes() {
 template <int Dim>
 constexpr double volumetric_average_bytes() {
   return 2.0 * (4.0 + 4.0 * (1 << Dim)) + 16.0;
+}
+
+/// The reference kernel's factor cache (engine/solver/kernel_factor_cache.hpp) of a
+/// particle: two doubles per pair of each of the two half-step lists (radius 2 alpha
+/// lattice spacings, counted as the lists are), plus the padding of a row (at most 3
+/// lanes, counted as 4) and its 8 B row start. The run holds it only where the whole
+/// cache fits in SolverSettings::kernel_cache_bytes: the caller adds the smaller of the two.
+template <int Dim>
+double kernel_factor_bytes_per_particle(double alpha) {
+  const double radius = 2.0 * alpha;
+  const double pairs = Dim == 1   ? 2.0 * radius
+                       : Dim == 2 ? std::numbers::pi * radius * radius
+                                  : 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
+  return 2.0 * (16.0 * (pairs + 4.0) + 8.0);
 }
 
 template <int Dim>

@@ -246,10 +246,17 @@ Eigen::Matrix<double, N, N> general_pseudo_inverse(const Eigen::Matrix<double, N
 ///   so that sum_J (a . (x_J - x_I)) M^-1 g_J = M^-1 M a = a for every a (M is not
 ///   symmetric: the pseudo-inverse fallback is the general one);
 ///   interpolation: the moments of [1; x_J - x_I] weighted by W(|X_J - X_I|).
+///   With `kernel_factors` the row's kernel factors value_factor W(q) and
+///   -slope_factor W'(q) / q (functions of |X_J - X_I| alone) are read instead of
+///   evaluated, kLanes values then kLanes slopes per pack; with `kernel_factors_out` they
+///   are evaluated and stored there (engine/solver/kernel_factor_cache.hpp): the same
+///   doubles either way.
 template <int Dim>
 struct ReferenceStencil {
   Eigen::Matrix<double, Dim, 1> query;  ///< X_I
   PointsView<Dim> source;               ///< X_J
+  const double* kernel_factors = nullptr;
+  double* kernel_factors_out = nullptr;
 };
 
 /// The body of compute_stencil, compiled once per instruction set (below).
@@ -325,11 +332,23 @@ template <int Dim, class Kernel, bool Reference = false>
     if constexpr (Reference)
       for (int d = 0; d < Dim; ++d)
         kernel_offset[d] = load_indexed_pack(reference->source.coordinate[d], j) - reference_i[d];
-    Pack r2 = kernel_offset[0] * kernel_offset[0];
-    for (int d = 1; d < Dim; ++d) r2 += kernel_offset[d] * kernel_offset[d];
-    const Pack q = square_root(r2) * inverse_h;
-    const Pack w = volume * (value_factor * Kernel::shape(q));
-    const Pack s = volume * (-slope_factor * Kernel::slope_over_q(q));
+    Pack value_term, slope_term;  // value_factor W(q), -slope_factor W'(q) / q
+    if (Reference && reference->kernel_factors != nullptr) {
+      value_term = load_pack(reference->kernel_factors + 2 * k);
+      slope_term = load_pack(reference->kernel_factors + 2 * k + kLanes);
+    } else {
+      Pack r2 = kernel_offset[0] * kernel_offset[0];
+      for (int d = 1; d < Dim; ++d) r2 += kernel_offset[d] * kernel_offset[d];
+      const Pack q = square_root(r2) * inverse_h;
+      value_term = value_factor * Kernel::shape(q);
+      slope_term = -slope_factor * Kernel::slope_over_q(q);
+      if (Reference && reference->kernel_factors_out != nullptr) {
+        store_pack(reference->kernel_factors_out + 2 * k, value_term);
+        store_pack(reference->kernel_factors_out + 2 * k + kLanes, slope_term);
+      }
+    }
+    const Pack w = volume * value_term;
+    const Pack s = volume * slope_term;
     store_pack(value + k, w);
     for (int d = 0; d < Dim; ++d) store_pack(gradient[d] + k, s * kernel_offset[d]);
     if constexpr (!split_sums) {

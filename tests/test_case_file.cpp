@@ -655,3 +655,54 @@ TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
        "method.velocity_wall=\"wall_gradient\"", "method.surface_extrapolation=true"}));
   EXPECT_EQ(explicit_record, record);
 }
+
+// The reference kernel's factor cache (engine/solver/kernel_factor_cache.hpp): the kernel
+// factors read from the cache are the doubles the first pass computed, so a run with it
+// and one without (solver.kernel_cache_mb = 0) are the same bits. Checked where the
+// stencils differ most: the quarter Taylor bar (3D, mirror ghosts in the lists, J2, the
+// adaptive step) and the plate (2D, elastic, the hourglass stiffness), each 40 steps;
+// and that the cache is filled and read (a budget below the lists' size turns it off).
+template <int Dim>
+std::vector<std::vector<double>> state_after_steps(const CaseFile& c, int steps, bool* filled) {
+  BuiltCase<Dim> built = build_case<Dim>(c);
+  TaylorSph<Dim> solver = make_solver<Dim>(c, built);
+  const double dt = case_time_step(c);
+  for (int n = 0; n < steps; ++n) {
+    double step = dt;
+    if (c.adaptive_time_step) step = std::min(dt, c.cfl * solver.stable_time_step().time_step);
+    solver.step(step);
+  }
+  *filled = solver.state().half_kernel_factors.filled() && solver.state().full_kernel_factors.filled();
+  const ParticleSet<Dim>& r = solver.real();
+  std::vector<std::vector<double>> fields;
+  for (int d = 0; d < Dim; ++d) fields.push_back(r.position[d]), fields.push_back(r.velocity[d]);
+  for (int m = 0; m < stress_component_count<Dim>; ++m) fields.push_back(r.stress[m]);
+  fields.push_back(r.density);
+  return fields;
+}
+
+TEST(KernelFactorCache, SameBitsWithAndWithout) {
+  set_thread_count(2);
+  {
+    const std::string bar = (kCases / "taylor_bar_quarter_3d.toml").string();
+    bool with_filled = false, without_filled = true;
+    const auto with = state_after_steps<3>(load_case(bar), 40, &with_filled);
+    const auto without = state_after_steps<3>(load_case(bar, {"solver.kernel_cache_mb=0"}), 40, &without_filled);
+    EXPECT_TRUE(with_filled);
+    EXPECT_FALSE(without_filled);
+    EXPECT_EQ(with, without);
+    // A budget below the two lists' 16 B per pair (about 1 MiB here): no cache.
+    bool small_filled = true;
+    state_after_steps<3>(load_case(bar, {"solver.kernel_cache_mb=0.5"}), 2, &small_filled);
+    EXPECT_FALSE(small_filled);
+  }
+  {
+    const std::string plate = (kCases / "plate_2d.toml").string();
+    bool with_filled = false, without_filled = true;
+    const auto with = state_after_steps<2>(load_case(plate), 40, &with_filled);
+    const auto without = state_after_steps<2>(load_case(plate, {"solver.kernel_cache_mb=0"}), 40, &without_filled);
+    EXPECT_TRUE(with_filled);
+    EXPECT_FALSE(without_filled);
+    EXPECT_EQ(with, without);
+  }
+}

@@ -435,6 +435,7 @@ BuiltCase<Dim> build_case(const CaseFile& c) {
   b.settings.neighbor_search = c.neighbor_search;
   b.settings.transpose_lists = c.transpose_lists;
   b.settings.neighbor_skin = c.neighbor_skin;
+  b.settings.kernel_cache_bytes = static_cast<std::size_t>(c.kernel_cache_mb * 1048576.0);
   b.settings.keep_virtual_fields = c.output_virtual;  // its frames write them (snapshot)
   b.material.emplace(case_model<Dim>(c));
   b.wave_speed = case_wave_speed(c);

@@ -352,6 +352,9 @@ CaseFile read_case(toml::table root, const std::string& path, const std::vector<
     c.neighbor_skin = v.real("neighbor_skin", false, "0.1", [](double s) { return s >= 0.0 && s <= 1.0; },
                              "must lie in [0, 1] (a fraction of the support radius 2h)")
                           .value_or(0.05);  // SolverSettings::neighbor_skin
+    c.kernel_cache_mb = v.real("kernel_cache_mb", false, "256", [](double m) { return m >= 0.0 && m <= 1048576.0; },
+                               "must lie in [0, 1048576] (MiB; 0: the kernel evaluated at every step)")
+                            .value_or(256.0);  // SolverSettings::kernel_cache_bytes
     v.finish();
   }
   {  // [time]

@@ -144,6 +144,7 @@ struct CaseFile {
   NeighborSearch neighbor_search = NeighborSearch::automatic;
   bool transpose_lists = false;
   double neighbor_skin = 0.05;  ///< SolverSettings::neighbor_skin
+  double kernel_cache_mb = 256.0;  ///< SolverSettings::kernel_cache_bytes, in MiB
 
   // [time]
   double end_time = 0.0;

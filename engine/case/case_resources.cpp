@@ -120,6 +120,9 @@ ResourceEstimate estimate(const CaseFile& c) {
   e.memory_bytes = estimate_bytes_per_real_particle<Dim>(c.alpha, model) *
                        std::max(e.real_particles, e.virtual_particles) +
                    e.frame_bytes + 3.0 * (e.checkpoint_bytes - bookkeeping) + 4.0 * bookkeeping;
+  if (model.reference_lists)  // the kernel factor cache, where it fits its budget
+    e.memory_bytes += std::min(c.kernel_cache_mb * 1048576.0, kernel_factor_bytes_per_particle<Dim>(c.alpha) *
+                                                                  std::max(e.real_particles, e.virtual_particles));
   return e;
 }
 

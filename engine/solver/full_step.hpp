@@ -66,13 +66,23 @@ struct FullStep {
         state.settings.surface_motion == SolverSettings<Dim>::SurfaceMotion::linear && !state.mirror.active();
     const bool guard_interpolation =
         state.positions_move() && state.settings.interpolation == InterpolationKind::linear;
+    KernelFactorCache& factors = state.full_kernel_factors;
+    const bool cached = state.use_kernel_factors(factors, state.lists.real_from_virtual);
+    const bool read_factors = cached && factors.filled();
     state.add(parallel_for_with_scratch<StepScratch, StencilCounts>(
         target.count, [&](std::size_t r, StepScratch& scratch, StencilCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
           std::span<const std::uint32_t> nb = state.lists.real_from_virtual.neighbors(r);
-          const ReferenceStencil<Dim> row_reference =
+          ReferenceStencil<Dim> row_reference =
               reference ? SolverState<Dim>::reference_stencil(state.initial_position_of(r), state.virtual_)
                         : ReferenceStencil<Dim>{};
+          // The cache's row is this list's row at h (the kernel factors do not depend on
+          // the interpolation kind: the guarded recompute below reads them too; a widened
+          // row is another stencil and evaluates its own).
+          if (cached && r < factors.rows()) {
+            if (read_factors) row_reference.kernel_factors = factors.row(r);
+            else row_reference.kernel_factors_out = factors.row_to_fill(r);
+          }
           StencilStatus status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
                                                       source.volume, nb, state.settings.interpolation, w,
                                                       simd_path(), reference ? &row_reference : nullptr);
@@ -243,6 +253,7 @@ struct FullStep {
             target.volume[r] = target.mass[r] / target.density[r];
           }
         }));
+    if (cached) factors.mark_filled();
     if (volumetric_average) VolumetricAverage<Dim>::apply(state, dt);
   }
 

@@ -63,12 +63,19 @@ struct HalfStep {
     const bool driven = state.driven();  // SolverState::driven_condition
     const PointsView<Dim> target_initial = driven ? initial_points_of<Dim>(state.virtual_) : PointsView<Dim>{};
     const double half_time = state.time + half_dt;
+    KernelFactorCache& factors = state.half_kernel_factors;
+    const bool cached = state.use_kernel_factors(factors, state.lists.virtual_from_real);
+    const bool read_factors = cached && factors.filled();
     const HalfStepCounts shifts = parallel_for_with_scratch<StepScratch, HalfStepCounts>(
         target.count, [&](std::size_t q, StepScratch& scratch, HalfStepCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
           const auto nb = state.lists.virtual_from_real.neighbors(q);
-          const ReferenceStencil<Dim> row_reference =
+          ReferenceStencil<Dim> row_reference =
               reference ? SolverState<Dim>::reference_stencil(target_reference.point(q), state.real) : ReferenceStencil<Dim>{};
+          if (cached && q < factors.rows()) {
+            if (read_factors) row_reference.kernel_factors = factors.row(q);
+            else row_reference.kernel_factors_out = factors.row_to_fill(q);
+          }
           const StencilStatus status =
               compute_stencil<Dim>(kernel, h, target.position_of(q), source_points,
                                    source.volume, nb, state.settings.interpolation, w, simd_path(),
@@ -98,6 +105,7 @@ struct HalfStep {
             counts.largest_shift = std::max(counts.largest_shift, place_at_material_point(state, q, nb, w));
         });
     state.add(shifts);
+    if (cached) factors.mark_filled();
     state.lists.virtual_path_bound += shifts.largest_shift;  // the lists' skin check (NeighborLists::outdated)
   }
 

@@ -9,6 +9,7 @@
 #include "neighbor/neighbor_search.hpp"
 #include "neighbor/spatial_order.hpp"
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <string_view>
@@ -160,6 +161,10 @@ struct SolverSettings {
   /// The full step's real -> virtual list is the transpose of the half step's list
   /// instead of a second search (both then held at once). Off by default.
   bool transpose_lists = false;
+  /// With the reference kernel: the most memory the two half-step lists' kernel factors
+  /// may take (solver/kernel_factor_cache.hpp; 16 B per pair and list). Where they need
+  /// more they are evaluated at every step, as with 0. Same results either way.
+  std::size_t kernel_cache_bytes = std::size_t{256} << 20;
   /// Verlet skin of the updated-Lagrangian neighbour lists with the kernel in the current
   /// configuration (the reference kernel, the default, searches its lists once and
   /// ignores it), a fraction of 2h in [0, 1]: lists searched with radius (1 + s) 2h and

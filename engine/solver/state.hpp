@@ -7,6 +7,7 @@
 #include "engine/boundary_condition.hpp"
 #include "engine/material/material.hpp"
 #include "engine/particle_set.hpp"
+#include "engine/solver/kernel_factor_cache.hpp"
 #include "engine/solver/settings.hpp"
 #include "engine/solver/stencil_evaluation.hpp"
 #include "neighbor/cell_list.hpp"
@@ -279,6 +280,19 @@ struct SolverState {
   /// (stabilisation/volumetric_average.hpp). Empty otherwise; scratch.
   std::vector<double> volumetric_rate, volumetric_cell_rate;
   VolumetricAverageStencils volumetric_stencils;  ///< its cells' corners and particles' cells
+  /// The reference kernel's factors of the half step's and the full step's lists
+  /// (kernel_factor_cache.hpp; SolverSettings::kernel_cache_bytes).
+  KernelFactorCache half_kernel_factors, full_kernel_factors;
+  /// Readies `cache` for `list` (h the settings'): whether the step reads or fills it.
+  /// Both caches share the budget: each is used where both lists' factors fit.
+  bool use_kernel_factors(KernelFactorCache& cache, const NeighborList& list) {
+    if (!reference_kernel()) return false;
+    const std::size_t both_lists = lists.virtual_from_real.pair_count() + lists.real_from_virtual.pair_count() +
+                                   kLanes * (lists.virtual_from_real.query_count() + lists.real_from_virtual.query_count());
+    const std::size_t budget = settings.kernel_cache_bytes / (2 * sizeof(double));  // pairs at 2 doubles
+    const std::size_t budget_doubles = both_lists <= budget ? 2 * (both_lists + kLanes) : 0;
+    return cache.prepare(list, counters.neighbor_builds, settings.smoothing_length, budget_doubles);
+  }
 
   /// Checks the settings and both sets, releases the virtual fields the run does not
   /// read, and fills the boundary slots. The lists are built by the solver.
