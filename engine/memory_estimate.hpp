@@ -117,8 +117,8 @@ constexpr double volumetric_average_bytes() {
 /// The reference kernel's factor cache (engine/solver/kernel_factor_cache.hpp) of a
 /// particle: two doubles per pair of each of the two half-step lists (radius 2 alpha
 /// lattice spacings, counted as the lists are), plus the padding of a row (at most 3
-/// lanes, counted as 4) and its 8 B row start. The run holds it only where the whole
-/// cache fits in SolverSettings::kernel_cache_bytes: the caller adds the smaller of the two.
+/// lanes, counted as 4) and its 8 B row start. The run holds at most
+/// SolverSettings::kernel_cache_bytes of it: the caller adds the smaller of the two.
 template <int Dim>
 double kernel_factor_bytes_per_particle(double alpha) {
   const double radius = 2.0 * alpha;

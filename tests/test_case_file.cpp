@@ -658,12 +658,18 @@ TEST(CaseFile, AutomaticMethodOptionsFollowOneRule) {
 
 // The reference kernel's factor cache (engine/solver/kernel_factor_cache.hpp): the kernel
 // factors read from the cache are the doubles the first pass computed, so a run with it
-// and one without (solver.kernel_cache_mb = 0) are the same bits. Checked where the
-// stencils differ most: the quarter Taylor bar (3D, mirror ghosts in the lists, J2, the
-// adaptive step) and the plate (2D, elastic, the hourglass stiffness), each 40 steps;
-// and that the cache is filled and read (a budget below the lists' size turns it off).
+// and one without (solver.kernel_cache_mb = 0) are the same bits, and so is a run whose
+// budget holds only the first rows of each list. Checked where the stencils differ most:
+// the quarter Taylor bar (3D, mirror ghosts in the lists, J2, the adaptive step) and the
+// plate (2D, elastic, the hourglass stiffness), each 40 steps.
+struct CachedRun {
+  std::vector<std::vector<double>> fields;  ///< positions, velocities, stresses, densities
+  std::size_t cached_rows = 0, list_rows = 0;  ///< both lists together
+  bool filled = false;
+};
+
 template <int Dim>
-std::vector<std::vector<double>> state_after_steps(const CaseFile& c, int steps, bool* filled) {
+CachedRun run_steps(const CaseFile& c, int steps) {
   BuiltCase<Dim> built = build_case<Dim>(c);
   TaylorSph<Dim> solver = make_solver<Dim>(c, built);
   const double dt = case_time_step(c);
@@ -672,37 +678,37 @@ std::vector<std::vector<double>> state_after_steps(const CaseFile& c, int steps,
     if (c.adaptive_time_step) step = std::min(dt, c.cfl * solver.stable_time_step().time_step);
     solver.step(step);
   }
-  *filled = solver.state().half_kernel_factors.filled() && solver.state().full_kernel_factors.filled();
+  CachedRun run;
+  const SolverState<Dim>& state = solver.state();
+  run.filled = state.half_kernel_factors.filled() && state.full_kernel_factors.filled();
+  run.cached_rows = state.half_kernel_factors.rows() + state.full_kernel_factors.rows();
+  run.list_rows = state.lists.virtual_from_real.query_count() + state.lists.real_from_virtual.query_count();
   const ParticleSet<Dim>& r = solver.real();
-  std::vector<std::vector<double>> fields;
-  for (int d = 0; d < Dim; ++d) fields.push_back(r.position[d]), fields.push_back(r.velocity[d]);
-  for (int m = 0; m < stress_component_count<Dim>; ++m) fields.push_back(r.stress[m]);
-  fields.push_back(r.density);
-  return fields;
+  for (int d = 0; d < Dim; ++d) run.fields.push_back(r.position[d]), run.fields.push_back(r.velocity[d]);
+  for (int m = 0; m < stress_component_count<Dim>; ++m) run.fields.push_back(r.stress[m]);
+  run.fields.push_back(r.density);
+  return run;
+}
+
+template <int Dim>
+void expect_same_bits_with_and_without_cache(const std::string& case_path) {
+  const CachedRun with = run_steps<Dim>(load_case(case_path), 40);
+  const CachedRun without = run_steps<Dim>(load_case(case_path, {"solver.kernel_cache_mb=0"}), 40);
+  // 0.1 MiB: the first rows of each list only (its pairs take about 16 B each).
+  const CachedRun part = run_steps<Dim>(load_case(case_path, {"solver.kernel_cache_mb=0.1"}), 40);
+  EXPECT_TRUE(with.filled);
+  EXPECT_EQ(with.cached_rows, with.list_rows);
+  EXPECT_FALSE(without.filled);
+  EXPECT_EQ(without.cached_rows, 0u);
+  EXPECT_TRUE(part.filled);
+  EXPECT_GT(part.cached_rows, 0u);
+  EXPECT_LT(part.cached_rows, part.list_rows / 2);
+  EXPECT_EQ(with.fields, without.fields);
+  EXPECT_EQ(part.fields, without.fields);
 }
 
 TEST(KernelFactorCache, SameBitsWithAndWithout) {
   set_thread_count(2);
-  {
-    const std::string bar = (kCases / "taylor_bar_quarter_3d.toml").string();
-    bool with_filled = false, without_filled = true;
-    const auto with = state_after_steps<3>(load_case(bar), 40, &with_filled);
-    const auto without = state_after_steps<3>(load_case(bar, {"solver.kernel_cache_mb=0"}), 40, &without_filled);
-    EXPECT_TRUE(with_filled);
-    EXPECT_FALSE(without_filled);
-    EXPECT_EQ(with, without);
-    // A budget below the two lists' 16 B per pair (about 1 MiB here): no cache.
-    bool small_filled = true;
-    state_after_steps<3>(load_case(bar, {"solver.kernel_cache_mb=0.5"}), 2, &small_filled);
-    EXPECT_FALSE(small_filled);
-  }
-  {
-    const std::string plate = (kCases / "plate_2d.toml").string();
-    bool with_filled = false, without_filled = true;
-    const auto with = state_after_steps<2>(load_case(plate), 40, &with_filled);
-    const auto without = state_after_steps<2>(load_case(plate, {"solver.kernel_cache_mb=0"}), 40, &without_filled);
-    EXPECT_TRUE(with_filled);
-    EXPECT_FALSE(without_filled);
-    EXPECT_EQ(with, without);
-  }
+  expect_same_bits_with_and_without_cache<3>((kCases / "taylor_bar_quarter_3d.toml").string());
+  expect_same_bits_with_and_without_cache<2>((kCases / "plate_2d.toml").string());
 }

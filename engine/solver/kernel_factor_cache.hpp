@@ -9,9 +9,11 @@
 // packs of kLanes (a row padded like StencilWeights, its padding lanes as computed), the
 // same doubles as computed, so the weights are the same bits with the cache or without
 // (test KernelFactorCache.SameBitsWithAndWithout).
-// Memory: 16 B per pair and padding lane, for each of the two lists; used only where both
-// fit in SolverSettings::kernel_cache_bytes (case key solver.kernel_cache_mb), else not at
-// all (memory_estimate.hpp counts the smaller of the two).
+// Memory: 16 B per pair and padding lane, for each of the two lists, within
+// SolverSettings::kernel_cache_bytes (case key solver.kernel_cache_mb) for both: each list
+// caches its rows from the first on as far as its half of the budget goes, and the rows
+// beyond evaluate their kernel at every step (a run of millions of particles caches a
+// part; memory_estimate.hpp counts the smaller of the budget and the whole need).
 #pragma once
 
 #include "kernels/simd.hpp"
@@ -19,6 +21,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace tsph {
@@ -27,47 +30,47 @@ class KernelFactorCache {
  public:
   /// Readies the cache for `list` searched at neighbour build `build` with smoothing
   /// length `h`: the same list and h as before keep what was stored; otherwise the
-  /// layout is made anew (and nothing is stored yet). Returns whether the cache is used:
-  /// false where its doubles would exceed `budget_doubles` (then it holds nothing).
+  /// layout is made anew (and nothing is stored yet). The rows from the first on, as many
+  /// as fit in `budget_doubles` (rows(); the others evaluate their kernel at every step).
+  /// Returns whether any row is cached.
   bool prepare(const NeighborList& list, std::int64_t build, double h, std::size_t budget_doubles) {
-    if (build == build_ && h == h_ && list.pair_count() == pairs_ && list.query_count() == rows_)
-      return used_;
+    if (build == build_ && h == h_ && list.pair_count() == pairs_ && list.query_count() == list_rows_)
+      return rows_ > 0;
     build_ = build;
     h_ = h;
     pairs_ = list.pair_count();
-    rows_ = list.query_count();
+    list_rows_ = list.query_count();
     filled_ = false;
-    std::size_t doubles = 0;
-    for (std::size_t q = 0; q < rows_; ++q) doubles += 2 * padded_size(list.neighbors(q).size());
-    used_ = doubles <= budget_doubles;
-    row_start_.clear();
-    factors_.clear();
-    if (!used_) {
-      row_start_.shrink_to_fit();
-      factors_.shrink_to_fit();
-      return false;
+    row_start_.assign(1, 0);
+    for (std::size_t q = 0; q < list_rows_; ++q) {
+      const std::size_t end = row_start_.back() + 2 * padded_size(list.neighbors(q).size());
+      if (end > budget_doubles) break;
+      row_start_.push_back(end);
     }
-    row_start_.resize(rows_ + 1);
-    row_start_[0] = 0;
-    for (std::size_t q = 0; q < rows_; ++q) row_start_[q + 1] = row_start_[q] + 2 * padded_size(list.neighbors(q).size());
-    factors_.assign(doubles, 0.0);
-    return true;
+    rows_ = row_start_.size() - 1;
+    // Not zero-filled: the first pass writes every double (whole packs, padding lanes too)
+    // before any is read.
+    factors_.reset();
+    if (rows_ > 0) factors_ = std::make_unique_for_overwrite<double[]>(row_start_.back());
+    else row_start_.shrink_to_fit();
+    return rows_ > 0;
   }
   /// Whether every row's factors are stored (after the first pass over the list).
   bool filled() const { return filled_; }
-  void mark_filled() { filled_ = used_; }
-  /// Row q's factors: kLanes values then kLanes slopes per pack of its neighbours.
-  const double* row(std::size_t q) const { return factors_.data() + row_start_[q]; }
-  double* row_to_fill(std::size_t q) { return factors_.data() + row_start_[q]; }
+  void mark_filled() { filled_ = rows_ > 0; }
+  /// Row q's factors (q < rows()): kLanes values then kLanes slopes per pack of its
+  /// neighbours.
+  const double* row(std::size_t q) const { return factors_.get() + row_start_[q]; }
+  double* row_to_fill(std::size_t q) { return factors_.get() + row_start_[q]; }
   std::size_t rows() const { return rows_; }
 
  private:
   std::int64_t build_ = -2;  ///< SolverCounters::neighbor_builds at prepare (-2: never)
   double h_ = 0.0;
-  std::size_t pairs_ = 0, rows_ = 0;
-  bool used_ = false, filled_ = false;
+  std::size_t pairs_ = 0, list_rows_ = 0, rows_ = 0;  ///< rows_: the rows cached
+  bool filled_ = false;
   std::vector<std::size_t> row_start_;  ///< per row, into factors_ (rows + 1)
-  std::vector<double> factors_;
+  std::unique_ptr<double[]> factors_;  ///< row_start_.back() doubles
 };
 
 }  // namespace tsph

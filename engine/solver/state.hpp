@@ -283,15 +283,12 @@ struct SolverState {
   /// The reference kernel's factors of the half step's and the full step's lists
   /// (kernel_factor_cache.hpp; SolverSettings::kernel_cache_bytes).
   KernelFactorCache half_kernel_factors, full_kernel_factors;
-  /// Readies `cache` for `list` (h the settings'): whether the step reads or fills it.
-  /// Both caches share the budget: each is used where both lists' factors fit.
+  /// Readies `cache` for `list` (h the settings'): whether the step reads or fills it
+  /// (for its first cache.rows() rows). Each of the two caches has half the budget.
   bool use_kernel_factors(KernelFactorCache& cache, const NeighborList& list) {
     if (!reference_kernel()) return false;
-    const std::size_t both_lists = lists.virtual_from_real.pair_count() + lists.real_from_virtual.pair_count() +
-                                   kLanes * (lists.virtual_from_real.query_count() + lists.real_from_virtual.query_count());
-    const std::size_t budget = settings.kernel_cache_bytes / (2 * sizeof(double));  // pairs at 2 doubles
-    const std::size_t budget_doubles = both_lists <= budget ? 2 * (both_lists + kLanes) : 0;
-    return cache.prepare(list, counters.neighbor_builds, settings.smoothing_length, budget_doubles);
+    return cache.prepare(list, counters.neighbor_builds, settings.smoothing_length,
+                         settings.kernel_cache_bytes / (2 * sizeof(double)));
   }
 
   /// Checks the settings and both sets, releases the virtual fields the run does not
