@@ -114,6 +114,15 @@ constexpr double volumetric_average_bytes() {
   return 2.0 * (4.0 + 4.0 * (1 << Dim)) + 16.0;
 }
 
+/// Pairs per row of a list of radius `radius` lattice spacings: the support ball in
+/// lattice cells (an upper bound of the measured count).
+template <int Dim>
+constexpr double pairs_per_row(double radius) {
+  return Dim == 1   ? 2.0 * radius
+         : Dim == 2 ? std::numbers::pi * radius * radius
+                    : 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
+}
+
 /// The reference kernel's factor cache (engine/solver/kernel_factor_cache.hpp) of a
 /// particle: two doubles per pair of each of the two half-step lists (radius 2 alpha
 /// lattice spacings, counted as the lists are), plus the padding of a row (at most 3
@@ -121,11 +130,7 @@ constexpr double volumetric_average_bytes() {
 /// SolverSettings::kernel_cache_bytes of it: the caller adds the smaller of the two.
 template <int Dim>
 double kernel_factor_bytes_per_particle(double alpha) {
-  const double radius = 2.0 * alpha;
-  const double pairs = Dim == 1   ? 2.0 * radius
-                       : Dim == 2 ? std::numbers::pi * radius * radius
-                                  : 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
-  return 2.0 * (16.0 * (pairs + 4.0) + 8.0);
+  return 2.0 * (16.0 * (pairs_per_row<Dim>(2.0 * alpha) + 4.0) + 8.0);
 }
 
 template <int Dim>
@@ -144,9 +149,7 @@ double estimate_bytes_per_real_particle(double alpha, const MemoryModel& model =
                       (model.volumetric_average ? volumetric_average_bytes<Dim>() : 0.0);
   if (model.reference_lists) skin = 0.0;  // the lists of X: searched once, no skin
   const double radius = 2.0 * alpha * (1.0 + skin);  // list radius in lattice spacings
-  const double pairs = Dim == 1   ? 2.0 * radius
-                       : Dim == 2 ? std::numbers::pi * radius * radius
-                                  : 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
+  const double pairs = pairs_per_row<Dim>(radius);
   const double list = 4.0 + 4.0 * pairs;
   const double boundary_offsets = 4.0;
   const double cell_list = 8.0 + 8.0 * Dim;

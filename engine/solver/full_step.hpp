@@ -68,7 +68,6 @@ struct FullStep {
         state.positions_move() && state.settings.interpolation == InterpolationKind::linear;
     KernelFactorCache& factors = state.full_kernel_factors;
     const bool cached = state.use_kernel_factors(factors, state.lists.real_from_virtual);
-    const bool read_factors = cached && factors.filled();
     state.add(parallel_for_with_scratch<StepScratch, StencilCounts>(
         target.count, [&](std::size_t r, StepScratch& scratch, StencilCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
@@ -79,10 +78,7 @@ struct FullStep {
           // The cache's row is this list's row at h (the kernel factors do not depend on
           // the interpolation kind: the guarded recompute below reads them too; a widened
           // row is another stencil and evaluates its own).
-          if (cached && r < factors.rows()) {
-            if (read_factors) row_reference.kernel_factors = factors.row(r);
-            else row_reference.kernel_factors_out = factors.row_to_fill(r);
-          }
+          if (cached) factors.attach(row_reference, r);
           StencilStatus status = compute_stencil<Dim>(kernel, h, target.position_of(r), source_points,
                                                       source.volume, nb, state.settings.interpolation, w,
                                                       simd_path(), reference ? &row_reference : nullptr);

@@ -65,17 +65,13 @@ struct HalfStep {
     const double half_time = state.time + half_dt;
     KernelFactorCache& factors = state.half_kernel_factors;
     const bool cached = state.use_kernel_factors(factors, state.lists.virtual_from_real);
-    const bool read_factors = cached && factors.filled();
     const HalfStepCounts shifts = parallel_for_with_scratch<StepScratch, HalfStepCounts>(
         target.count, [&](std::size_t q, StepScratch& scratch, HalfStepCounts& counts) {
           StencilWeights<Dim>& w = scratch.weights;
           const auto nb = state.lists.virtual_from_real.neighbors(q);
           ReferenceStencil<Dim> row_reference =
               reference ? SolverState<Dim>::reference_stencil(target_reference.point(q), state.real) : ReferenceStencil<Dim>{};
-          if (cached && q < factors.rows()) {
-            if (read_factors) row_reference.kernel_factors = factors.row(q);
-            else row_reference.kernel_factors_out = factors.row_to_fill(q);
-          }
+          if (cached) factors.attach(row_reference, q);
           const StencilStatus status =
               compute_stencil<Dim>(kernel, h, target.position_of(q), source_points,
                                    source.volume, nb, state.settings.interpolation, w, simd_path(),

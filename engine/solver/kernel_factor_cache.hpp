@@ -16,6 +16,7 @@
 // part; memory_estimate.hpp counts the smaller of the budget and the whole need).
 #pragma once
 
+#include "kernels/corrected_operators.hpp"
 #include "kernels/simd.hpp"
 #include "neighbor/neighbor_list.hpp"
 
@@ -55,13 +56,19 @@ class KernelFactorCache {
     else row_start_.shrink_to_fit();
     return rows_ > 0;
   }
-  /// Whether every row's factors are stored (after the first pass over the list).
-  bool filled() const { return filled_; }
+  /// Gives row q's stencil its cached factors to read, or (before the first pass over
+  /// the list is done) its place to store them; a row beyond rows() gets neither.
+  /// Row q's factors: kLanes values then kLanes slopes per pack of its neighbours.
+  template <int Dim>
+  void attach(ReferenceStencil<Dim>& stencil, std::size_t q) {
+    if (q >= rows_) return;
+    double* row = factors_.get() + row_start_[q];
+    if (filled_) stencil.kernel_factors = row;
+    else stencil.kernel_factors_out = row;
+  }
+  /// After a pass over the list: every cached row's factors are stored.
   void mark_filled() { filled_ = rows_ > 0; }
-  /// Row q's factors (q < rows()): kLanes values then kLanes slopes per pack of its
-  /// neighbours.
-  const double* row(std::size_t q) const { return factors_.get() + row_start_[q]; }
-  double* row_to_fill(std::size_t q) { return factors_.get() + row_start_[q]; }
+  bool filled() const { return filled_; }
   std::size_t rows() const { return rows_; }
 
  private:
